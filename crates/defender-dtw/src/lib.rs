@@ -1,0 +1,1 @@
+//! defender-dtw: see the crate README (being built).

@@ -1,0 +1,1 @@
+//! defender-mujoco: see the crate README (being built).

@@ -1,0 +1,1 @@
+//! defender-nn: see the crate README (being built).

@@ -1,0 +1,1 @@
+//! defender-report: the paper's tables and plots from run directories (being built).

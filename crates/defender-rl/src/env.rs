@@ -1,0 +1,90 @@
+//! The environment trait.
+
+use crate::error::Result;
+use crate::space::BoxSpace;
+
+/// What happened besides the reward: flags that algorithms ignore and bookkeeping reads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepInfo {
+    /// The simulator became unstable (NaN/Inf accelerations) and the episode was ended; the
+    /// step is marked `terminated` so that the episode stops, and a warning was logged.
+    pub unstable: bool,
+    /// A wrapper vetoed the action and did not send it to the environment (DEFENDER); the
+    /// observation is a prediction and the step is `terminated`. Plain environments leave it false.
+    pub filtered: bool,
+}
+
+/// The result of one environment step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// Observation after the step.
+    pub obs: Vec<f64>,
+    /// Reward of the step.
+    pub reward: f64,
+    /// The episode reached an absorbing state (e.g. the robot fell): do not bootstrap.
+    pub terminated: bool,
+    /// The episode was cut by a time limit: bootstrap as usual.
+    pub truncated: bool,
+    /// Side flags.
+    pub info: StepInfo,
+}
+
+impl Step {
+    /// Whether the episode is over (terminated or truncated).
+    pub fn done(&self) -> bool {
+        self.terminated || self.truncated
+    }
+}
+
+/// A Gymnasium-style environment with continuous observations and actions.
+///
+/// Object safe, so that an environment chosen by id at run time is a `Box<dyn Env>`.
+pub trait Env {
+    /// The Gymnasium id (e.g. `Hopper-v5`).
+    fn id(&self) -> &str;
+
+    /// The observation space.
+    fn observation_space(&self) -> &BoxSpace;
+
+    /// The action space (bounded).
+    fn action_space(&self) -> &BoxSpace;
+
+    /// The episode horizon, if the environment has one (set by [`crate::TimeLimit`]).
+    fn max_episode_steps(&self) -> Option<usize> {
+        None
+    }
+
+    /// Starts a new episode and returns its first observation. `Some(seed)` re-seeds the
+    /// environment's own random generator (as Gymnasium's `reset(seed=...)`); `None` continues it.
+    ///
+    /// # Errors
+    /// The simulator failed to reset.
+    fn reset(&mut self, seed: Option<u64>) -> Result<Vec<f64>>;
+
+    /// Applies `action` and advances one step.
+    ///
+    /// # Errors
+    /// The action has the wrong length or non-finite values, or the environment needs a reset.
+    fn step(&mut self, action: &[f64]) -> Result<Step>;
+}
+
+impl<E: Env + ?Sized> Env for Box<E> {
+    fn id(&self) -> &str {
+        (**self).id()
+    }
+    fn observation_space(&self) -> &BoxSpace {
+        (**self).observation_space()
+    }
+    fn action_space(&self) -> &BoxSpace {
+        (**self).action_space()
+    }
+    fn max_episode_steps(&self) -> Option<usize> {
+        (**self).max_episode_steps()
+    }
+    fn reset(&mut self, seed: Option<u64>) -> Result<Vec<f64>> {
+        (**self).reset(seed)
+    }
+    fn step(&mut self, action: &[f64]) -> Result<Step> {
+        (**self).step(action)
+    }
+}

@@ -1,0 +1,1 @@
+//! defender: see the crate README (being built).
