@@ -1,1 +1,23 @@
-//! defender-report: the paper's tables and plots from run directories (being built).
+#![doc = include_str!("../README.md")]
+
+mod csv;
+mod discover;
+mod error;
+mod io;
+mod plot;
+mod render;
+mod run;
+mod stats;
+mod table;
+
+pub use discover::{RunSet, SkippedRun, find_run_dirs, load_runs};
+pub use error::{ReportError, Result};
+pub use io::write_atomic;
+pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
+pub use render::{CSV_HEADER, Format, render};
+pub use run::{
+    Budget, CONFIG_FILE, EVAL_FILE, EVAL_HEADER, Episode, Evaluation, Filter, METRICS_FILE, METRICS_HEADER,
+    Mode, Outcome, Run, RunConfig, SUMMARY_FILE, Summary,
+};
+pub use stats::{Stat, interpolate, linspace, rolling_mean};
+pub use table::{Row, Table};

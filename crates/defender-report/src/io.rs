@@ -1,0 +1,38 @@
+//! Atomic output: write `NAME.tmp`, then rename it to `NAME`, so that a reader (or an interrupted
+//! report) never sees a half-written file.
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Result, io_err};
+
+/// Writes `bytes` to `path` atomically (through `path` + `.tmp` in the same directory).
+///
+/// # Errors
+///
+/// [`crate::ReportError::Io`] naming the file when writing or renaming fails.
+pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
+    let path = path.as_ref();
+    let mut tmp: PathBuf = path.to_path_buf();
+    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    name.push(".tmp");
+    tmp.set_file_name(name);
+    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
+    std::fs::rename(&tmp, path).map_err(io_err(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_and_replaces_without_leaving_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.md");
+        write_atomic(&path, b"one").unwrap();
+        write_atomic(&path, b"two").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "two");
+        assert!(!dir.path().join("out.md.tmp").exists());
+        let err = write_atomic(dir.path().join("no/such/dir/x"), b"x").unwrap_err();
+        assert!(err.to_string().contains("no/such/dir/x.tmp"), "{err}");
+    }
+}

@@ -1,0 +1,476 @@
+//! One run directory (docs/run-directory.md): its configuration, training episodes, evaluations
+//! and summary, read and checked against each other.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::csv::CsvFile;
+use crate::error::{ReportError, Result};
+
+/// The four files of a run directory.
+pub const CONFIG_FILE: &str = "config.toml";
+/// Training episodes, one row each.
+pub const METRICS_FILE: &str = "metrics.csv";
+/// Evaluations of the deterministic policy.
+pub const EVAL_FILE: &str = "eval.csv";
+/// The run's totals; its presence marks a run directory.
+pub const SUMMARY_FILE: &str = "summary.json";
+
+/// The header of `metrics.csv`.
+pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds";
+/// The header of `eval.csv`.
+pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes";
+
+/// Tolerance for comparing a percentage in `summary.json` with the one recomputed from
+/// `metrics.csv` (the writer may round to 0.1).
+const PCT_TOLERANCE: f64 = 0.051;
+
+/// The training budget: environment steps or episodes (exactly one of `total_steps` and
+/// `total_episodes` in `config.toml` is non-zero).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Budget {
+    /// A number of environment steps.
+    Steps(u64),
+    /// A number of training episodes.
+    Episodes(u64),
+}
+
+impl fmt::Display for Budget {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Budget::Steps(n) => write!(f, "{n} steps"),
+            Budget::Episodes(n) => write!(f, "{n} episodes"),
+        }
+    }
+}
+
+/// What DEFENDER compares: state trajectories or state-action trajectories (SPEC section 3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Mode {
+    /// `"state"`: the paper's Table 1.
+    State,
+    /// `"state-action"`: the paper's Table 2.
+    StateAction,
+}
+
+impl Mode {
+    /// The name used in `config.toml` and `summary.json`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::State => "state",
+            Mode::StateAction => "state-action",
+        }
+    }
+
+    fn parse(text: &str) -> Option<Self> {
+        match text {
+            "state" => Some(Mode::State),
+            "state-action" => Some(Mode::StateAction),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// How a training episode ended (SPEC section 6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Outcome {
+    /// The environment terminated it (an unhealthy state).
+    Crashed,
+    /// DEFENDER ended it; not a crash.
+    Filtered,
+    /// It reached the horizon.
+    Truncated,
+}
+
+impl Outcome {
+    fn parse(text: &str) -> Option<Self> {
+        match text {
+            "crashed" => Some(Outcome::Crashed),
+            "filtered" => Some(Outcome::Filtered),
+            "truncated" => Some(Outcome::Truncated),
+            _ => None,
+        }
+    }
+}
+
+/// The DEFENDER settings of a run (the `[defender]` table of `config.toml`).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Filter {
+    /// `SAFE/UNSAFE`, e.g. `MeanDemoW5/MeanDemoW10`.
+    pub strategy: String,
+    /// State or state-action trajectories.
+    pub mode: Mode,
+    /// Demonstrations used per group, when given.
+    pub num_demos: Option<u64>,
+}
+
+impl Filter {
+    /// The strategy of the safe group (before the `/`).
+    pub fn safe(&self) -> &str {
+        self.strategy.split_once('/').map_or(self.strategy.as_str(), |(s, _)| s)
+    }
+
+    /// The strategy of the unsafe group (after the `/`).
+    pub fn unsafe_(&self) -> &str {
+        self.strategy.split_once('/').map_or(self.strategy.as_str(), |(_, u)| u)
+    }
+}
+
+/// What the report needs from `config.toml`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunConfig {
+    /// Gymnasium id, e.g. `Hopper-v5`.
+    pub env: String,
+    /// `sac` or `td3`.
+    pub algo: String,
+    /// The run's seed.
+    pub seed: u64,
+    /// Steps or episodes.
+    pub budget: Budget,
+    /// `None` for a bare run.
+    pub filter: Option<Filter>,
+}
+
+/// `summary.json`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct Summary {
+    /// Gymnasium id.
+    pub env: String,
+    /// `sac` or `td3`.
+    pub algo: String,
+    /// The run's seed.
+    pub seed: u64,
+    /// `SAFE/UNSAFE`, `None` for a bare run.
+    pub strategy: Option<String>,
+    /// `state` or `state-action`, `None` for a bare run.
+    pub mode: Option<String>,
+    /// Mean return of the final evaluation (the paper's Acc Reward).
+    pub acc_reward: f64,
+    /// Crashed training episodes / all training episodes x 100.
+    pub crash_pct: f64,
+    /// Filtered training episodes / all training episodes x 100.
+    pub filtered_pct: f64,
+    /// Training episodes.
+    pub episodes: u64,
+    /// Environment steps.
+    pub steps: u64,
+    /// Steps DEFENDER filtered.
+    pub filtered_steps: u64,
+    /// Wall-clock seconds of the whole run.
+    pub wall_seconds: f64,
+    /// Environment steps per wall-clock second.
+    pub steps_per_second: f64,
+    /// `false` while the run is in progress or after it was stopped.
+    pub complete: bool,
+}
+
+/// One row of `metrics.csv`: a training episode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Episode {
+    /// 0-based index.
+    pub episode: u64,
+    /// Environment steps taken by the end of this episode.
+    pub total_steps: u64,
+    /// Undiscounted return.
+    pub ret: f64,
+    /// Steps in this episode.
+    pub length: u64,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Wall-clock seconds since the run started, at the end of this episode.
+    pub wall_seconds: f64,
+}
+
+/// One row of `eval.csv`: an evaluation of the deterministic policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evaluation {
+    /// Environment steps of training when it was made.
+    pub total_steps: u64,
+    /// Mean undiscounted return over the evaluation episodes.
+    pub mean_return: f64,
+    /// Their standard deviation.
+    pub std_return: f64,
+    /// Their mean length.
+    pub mean_length: f64,
+    /// How many episodes.
+    pub episodes: u64,
+}
+
+/// A complete run directory, read and checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    /// The directory.
+    pub dir: PathBuf,
+    /// From `config.toml`.
+    pub config: RunConfig,
+    /// From `summary.json`.
+    pub summary: Summary,
+    /// From `metrics.csv`, in order.
+    pub episodes: Vec<Episode>,
+    /// From `eval.csv`, in order; the last one is the final evaluation.
+    pub evaluations: Vec<Evaluation>,
+}
+
+impl Run {
+    /// Reads the run directory `dir`.
+    ///
+    /// # Errors
+    ///
+    /// [`ReportError::Incomplete`] when `summary.json` says `"complete": false` (checked first, so
+    /// a run in progress is recognised whatever the state of its other files); otherwise an error
+    /// naming the file at fault when a file is missing, unreadable, does not follow
+    /// docs/run-directory.md, or contradicts another file (the seed, task, algorithm or strategy of
+    /// `summary.json` and `config.toml`; the episode and step counts and the crash and filtered
+    /// percentages of `summary.json` and `metrics.csv`; `acc_reward` and the last row of `eval.csv`).
+    pub fn load(dir: impl AsRef<Path>) -> Result<Run> {
+        let dir = dir.as_ref();
+        let summary_path = dir.join(SUMMARY_FILE);
+        let summary_text = read(&summary_path)?;
+        let summary = parse_summary(dir, &summary_path, &summary_text)?;
+        let config_path = dir.join(CONFIG_FILE);
+        let config = parse_config(&config_path, &read(&config_path)?)?;
+        let metrics_path = dir.join(METRICS_FILE);
+        let episodes = parse_metrics(&metrics_path, &read(&metrics_path)?)?;
+        let eval_path = dir.join(EVAL_FILE);
+        let evaluations = parse_eval(&eval_path, &read(&eval_path)?)?;
+        let run = Run { dir: dir.to_path_buf(), config, summary, episodes, evaluations };
+        run.check()?;
+        Ok(run)
+    }
+
+    /// Training episodes that crashed.
+    pub fn crashed(&self) -> usize {
+        self.episodes.iter().filter(|e| e.outcome == Outcome::Crashed).count()
+    }
+
+    /// Cross-checks the four files.
+    fn check(&self) -> Result<()> {
+        let (c, s) = (&self.config, &self.summary);
+        let summary_path = self.dir.join(SUMMARY_FILE);
+        let invalid = |message: String| ReportError::Invalid { path: summary_path.clone(), message };
+        if (s.env.as_str(), s.algo.as_str(), s.seed) != (c.env.as_str(), c.algo.as_str(), c.seed) {
+            return Err(invalid(format!(
+                "env/algo/seed {}/{}/{} disagree with config.toml's {}/{}/{}",
+                s.env, s.algo, s.seed, c.env, c.algo, c.seed
+            )));
+        }
+        let config_filter = c.filter.as_ref().map(|f| (f.strategy.as_str(), f.mode.as_str()));
+        let summary_filter = s.strategy.as_deref().zip(s.mode.as_deref());
+        if config_filter != summary_filter || s.strategy.is_some() != s.mode.is_some() {
+            return Err(invalid(format!(
+                "strategy/mode {:?}/{:?} disagree with config.toml's [defender] table {:?}",
+                s.strategy, s.mode, config_filter
+            )));
+        }
+        let n = self.episodes.len() as u64;
+        if s.episodes != n {
+            return Err(invalid(format!("episodes = {} but metrics.csv has {n} episodes", s.episodes)));
+        }
+        let last_steps = self.episodes.last().map_or(0, |e| e.total_steps);
+        if s.steps < last_steps {
+            return Err(invalid(format!(
+                "steps = {} but metrics.csv's last episode ends at total_steps {last_steps}",
+                s.steps
+            )));
+        }
+        let pct = |k: usize| if n == 0 { 0.0 } else { k as f64 * 100.0 / n as f64 };
+        let crash = pct(self.crashed());
+        if (s.crash_pct - crash).abs() > PCT_TOLERANCE {
+            return Err(invalid(format!(
+                "crash_pct = {} but metrics.csv has {} crashed of {n} episodes ({crash:.3}%)",
+                s.crash_pct,
+                self.crashed()
+            )));
+        }
+        let filtered_count = self.episodes.iter().filter(|e| e.outcome == Outcome::Filtered).count();
+        let filtered = pct(filtered_count);
+        if (s.filtered_pct - filtered).abs() > PCT_TOLERANCE {
+            return Err(invalid(format!(
+                "filtered_pct = {} but metrics.csv has {filtered_count} filtered of {n} episodes \
+                 ({filtered:.3}%)",
+                s.filtered_pct
+            )));
+        }
+        let Some(last_eval) = self.evaluations.last() else {
+            return Err(ReportError::Invalid {
+                path: self.dir.join(EVAL_FILE),
+                message: "no evaluation row; a complete run ends with its final evaluation".into(),
+            });
+        };
+        let tolerance = 0.01 + 1e-6 * last_eval.mean_return.abs();
+        if (s.acc_reward - last_eval.mean_return).abs() > tolerance {
+            return Err(invalid(format!(
+                "acc_reward = {} but the last row of eval.csv has mean_return {}",
+                s.acc_reward, last_eval.mean_return
+            )));
+        }
+        Ok(())
+    }
+}
+
+fn read(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| {
+        if source.kind() == std::io::ErrorKind::NotFound {
+            ReportError::MissingFile { path: path.to_path_buf() }
+        } else {
+            ReportError::Io { path: path.to_path_buf(), source }
+        }
+    })
+}
+
+fn parse_summary(dir: &Path, path: &Path, text: &str) -> Result<Summary> {
+    let json_err = |source| ReportError::Json { path: path.to_path_buf(), source };
+    // `complete` first: an incomplete run may lack the totals.
+    let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
+    match value.get("complete") {
+        Some(serde_json::Value::Bool(true)) => {}
+        Some(serde_json::Value::Bool(false)) => {
+            return Err(ReportError::Incomplete { dir: dir.to_path_buf() });
+        }
+        other => {
+            return Err(ReportError::Invalid {
+                path: path.to_path_buf(),
+                message: format!("\"complete\" must be true or false, found {other:?}"),
+            });
+        }
+    }
+    let summary: Summary = serde_json::from_value(value).map_err(json_err)?;
+    let finite = [
+        ("acc_reward", summary.acc_reward),
+        ("crash_pct", summary.crash_pct),
+        ("filtered_pct", summary.filtered_pct),
+        ("wall_seconds", summary.wall_seconds),
+    ];
+    if let Some((name, v)) = finite.iter().find(|(_, v)| !v.is_finite()) {
+        return Err(ReportError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("{name} = {v} is not a finite number"),
+        });
+    }
+    if summary.wall_seconds <= 0.0 {
+        return Err(ReportError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("wall_seconds = {} must be positive", summary.wall_seconds),
+        });
+    }
+    Ok(summary)
+}
+
+#[derive(Deserialize)]
+struct RawConfig {
+    env: String,
+    algo: String,
+    seed: u64,
+    total_steps: u64,
+    total_episodes: u64,
+    defender: Option<RawDefender>,
+}
+
+#[derive(Deserialize)]
+struct RawDefender {
+    strategy: String,
+    mode: String,
+    num_demos: Option<u64>,
+}
+
+fn parse_config(path: &Path, text: &str) -> Result<RunConfig> {
+    let raw: RawConfig =
+        toml::from_str(text).map_err(|e| ReportError::Toml { path: path.to_path_buf(), source: Box::new(e) })?;
+    let invalid = |message: String| ReportError::Invalid { path: path.to_path_buf(), message };
+    let budget = match (raw.total_steps, raw.total_episodes) {
+        (n, 0) if n > 0 => Budget::Steps(n),
+        (0, n) if n > 0 => Budget::Episodes(n),
+        (s, e) => {
+            return Err(invalid(format!(
+                "exactly one of total_steps ({s}) and total_episodes ({e}) must be non-zero"
+            )));
+        }
+    };
+    let filter = match raw.defender {
+        None => None,
+        Some(d) => {
+            let mode = Mode::parse(&d.mode).ok_or_else(|| {
+                invalid(format!("[defender] mode = {:?}: expected \"state\" or \"state-action\"", d.mode))
+            })?;
+            if d.strategy.split('/').count() != 2 || d.strategy.split('/').any(str::is_empty) {
+                return Err(invalid(format!(
+                    "[defender] strategy = {:?}: expected SAFE/UNSAFE, e.g. \"MeanDemoW5/MeanDemoW10\"",
+                    d.strategy
+                )));
+            }
+            Some(Filter { strategy: d.strategy, mode, num_demos: d.num_demos })
+        }
+    };
+    Ok(RunConfig { env: raw.env, algo: raw.algo, seed: raw.seed, budget, filter })
+}
+
+const METRICS_COLUMNS: &[&str] = &["episode", "total_steps", "return", "length", "outcome", "wall_seconds"];
+
+fn parse_metrics(path: &Path, text: &str) -> Result<Vec<Episode>> {
+    let file = CsvFile::parse(path, text, METRICS_HEADER, METRICS_COLUMNS)?;
+    let mut episodes: Vec<Episode> = Vec::new();
+    for row in file.rows() {
+        let outcome = Outcome::parse(row.text(4)).ok_or_else(|| {
+            row.error(format!(
+                "column outcome: {:?} is not one of crashed, filtered, truncated",
+                row.text(4)
+            ))
+        })?;
+        let episode = Episode {
+            episode: row.get(0)?,
+            total_steps: row.get(1)?,
+            ret: row.finite(2)?,
+            length: row.get(3)?,
+            outcome,
+            wall_seconds: row.finite(5)?,
+        };
+        let expected = episodes.len() as u64;
+        if episode.episode != expected {
+            return Err(row.error(format!("episode {} out of order: expected {expected}", episode.episode)));
+        }
+        if let Some(prev) = episodes.last()
+            && episode.total_steps < prev.total_steps
+        {
+            return Err(row.error(format!(
+                "total_steps {} decreases (previous row: {})",
+                episode.total_steps, prev.total_steps
+            )));
+        }
+        episodes.push(episode);
+    }
+    Ok(episodes)
+}
+
+const EVAL_COLUMNS: &[&str] = &["total_steps", "mean_return", "std_return", "mean_length", "episodes"];
+
+fn parse_eval(path: &Path, text: &str) -> Result<Vec<Evaluation>> {
+    let file = CsvFile::parse(path, text, EVAL_HEADER, EVAL_COLUMNS)?;
+    let mut evaluations: Vec<Evaluation> = Vec::new();
+    for row in file.rows() {
+        let evaluation = Evaluation {
+            total_steps: row.get(0)?,
+            mean_return: row.finite(1)?,
+            std_return: row.finite(2)?,
+            mean_length: row.finite(3)?,
+            episodes: row.get(4)?,
+        };
+        if let Some(prev) = evaluations.last()
+            && evaluation.total_steps < prev.total_steps
+        {
+            return Err(row.error(format!(
+                "total_steps {} decreases (previous row: {})",
+                evaluation.total_steps, prev.total_steps
+            )));
+        }
+        evaluations.push(evaluation);
+    }
+    Ok(evaluations)
+}

@@ -1,0 +1,158 @@
+//! The paper's tables (Tables 1 and 2) as data: one row per task x algorithm x budget x strategy,
+//! aggregated over seeds (SPEC section 6).
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::run::{Budget, Filter, Mode, Run};
+use crate::stats::Stat;
+
+/// One row of the table: a task, an algorithm, a budget and a strategy (or none: the bare
+/// algorithm), over the seeds run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// Gymnasium id, e.g. `Hopper-v5`.
+    pub env: String,
+    /// `sac` or `td3`.
+    pub algo: String,
+    /// The training budget.
+    pub budget: Budget,
+    /// `None` for the bare algorithm.
+    pub filter: Option<Filter>,
+    /// The seeds, ascending.
+    pub seeds: Vec<u64>,
+    /// Acc Reward: the mean return of the final evaluation.
+    pub acc_reward: Stat,
+    /// % Crash: crashed / all training episodes x 100.
+    pub crash_pct: Stat,
+    /// Filtered / all training episodes x 100 (0 for the bare algorithm).
+    pub filtered_pct: Stat,
+    /// Wall-clock seconds of the runs.
+    pub wall_seconds: Stat,
+    /// % Time: per seed, this run's wall-clock time / that of the bare run with the same task,
+    /// algorithm, budget and seed x 100; over the seeds that have such a bare run. `None` when
+    /// no seed has one.
+    pub time_pct: Option<Stat>,
+}
+
+impl Row {
+    /// `SAC`, or `SAC MeanDemoW5/MeanDemoW10 (state)`: for notes and warnings.
+    pub fn label(&self) -> String {
+        let algo = self.algo.to_uppercase();
+        match &self.filter {
+            None => format!("{} {algo} ({})", self.env, self.budget),
+            Some(f) => format!("{} {algo} {} ({}, {})", self.env, f.strategy, f.mode, self.budget),
+        }
+    }
+
+    /// The trajectory mode, `None` for the bare algorithm.
+    pub fn mode(&self) -> Option<Mode> {
+        self.filter.as_ref().map(|f| f.mode)
+    }
+}
+
+/// The table: rows ordered by task, algorithm, budget, then the bare algorithm first and its
+/// DEFENDER strategies after it (state mode before state-action, strategies by name), with notes
+/// about what could not be computed.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Table {
+    /// The rows.
+    pub rows: Vec<Row>,
+    /// Notes for the reader (missing bare runs for % Time).
+    pub notes: Vec<String>,
+}
+
+type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>)>);
+
+impl Table {
+    /// Aggregates `runs` over seeds.
+    pub fn from_runs(runs: &[Run]) -> Table {
+        let mut groups: BTreeMap<GroupKey, Vec<&Run>> = BTreeMap::new();
+        for run in runs {
+            let c = &run.config;
+            let filter = c.filter.as_ref().map(|f| (f.mode, f.strategy.clone(), f.num_demos));
+            groups.entry((c.env.clone(), c.algo.clone(), c.budget, filter)).or_default().push(run);
+        }
+        // Wall-clock time of each bare run, by (task, algorithm, budget, seed).
+        let bare: BTreeMap<(&str, &str, Budget, u64), f64> = runs
+            .iter()
+            .filter(|r| r.config.filter.is_none())
+            .map(|r| {
+                let c = &r.config;
+                ((c.env.as_str(), c.algo.as_str(), c.budget, c.seed), r.summary.wall_seconds)
+            })
+            .collect();
+
+        let mut table = Table::default();
+        // BTreeMap order is the table's order: `None` (bare) sorts before `Some(..)`.
+        for ((env, algo, budget, _), mut group) in groups {
+            group.sort_by_key(|r| r.config.seed);
+            let values = |f: &dyn Fn(&Run) -> f64| -> Vec<f64> { group.iter().map(|r| f(r)).collect() };
+            let seeds: Vec<u64> = group.iter().map(|r| r.config.seed).collect();
+            let mut missing = BTreeSet::new();
+            let mut ratios = Vec::new();
+            for run in &group {
+                match bare.get(&(env.as_str(), algo.as_str(), budget, run.config.seed)) {
+                    Some(bare_wall) => ratios.push(run.summary.wall_seconds / bare_wall * 100.0),
+                    None => {
+                        missing.insert(run.config.seed);
+                    }
+                }
+            }
+            let (Some(acc_reward), Some(crash_pct), Some(filtered_pct), Some(wall_seconds)) = (
+                Stat::of(&values(&|r| r.summary.acc_reward)),
+                Stat::of(&values(&|r| r.summary.crash_pct)),
+                Stat::of(&values(&|r| r.summary.filtered_pct)),
+                Stat::of(&values(&|r| r.summary.wall_seconds)),
+            ) else {
+                continue; // unreachable: a group has at least one run
+            };
+            let row = Row {
+                env,
+                algo,
+                budget,
+                filter: group[0].config.filter.clone(),
+                seeds,
+                acc_reward,
+                crash_pct,
+                filtered_pct,
+                wall_seconds,
+                time_pct: Stat::of(&ratios),
+            };
+            if !missing.is_empty() {
+                let list: Vec<String> = missing.iter().map(u64::to_string).collect();
+                let consequence = if ratios.is_empty() {
+                    "shown as -".to_string()
+                } else {
+                    format!("averaged over the other {} seed(s)", ratios.len())
+                };
+                table.notes.push(format!(
+                    "% Time of {}: no bare run for seed(s) {}; {consequence}.",
+                    row.label(),
+                    list.join(", ")
+                ));
+            }
+            table.rows.push(row);
+        }
+        table
+    }
+
+    /// The trajectory modes of the DEFENDER rows, in order (empty when all rows are bare).
+    pub fn modes(&self) -> Vec<Mode> {
+        let set: BTreeSet<Mode> = self.rows.iter().filter_map(Row::mode).collect();
+        set.into_iter().collect()
+    }
+
+    /// The rows for one of the paper's tables: every bare row, and the DEFENDER rows in `mode`
+    /// (`None`: bare rows only), in table order.
+    pub fn rows_for(&self, mode: Option<Mode>) -> impl Iterator<Item = &Row> {
+        self.rows.iter().filter(move |r| r.filter.is_none() || (mode.is_some() && r.mode() == mode))
+    }
+
+    /// Whether the DEFENDER rows use more than one number of demonstrations (then the renderers
+    /// show it, as in the paper's Table 3).
+    pub fn varies_num_demos(&self) -> bool {
+        let set: BTreeSet<Option<u64>> =
+            self.rows.iter().filter_map(|r| r.filter.as_ref().map(|f| f.num_demos)).collect();
+        set.len() > 1
+    }
+}
