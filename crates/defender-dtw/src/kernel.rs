@@ -1,0 +1,143 @@
+//! The batch DTW kernel (SPEC section 2): anti-diagonal strips of `L` query rows.
+//!
+//! Along one DP row every cell waits for its left neighbour (a serial min/add chain of ~7 cycles
+//! per cell). A strip of `L` consecutive rows `i..i+L` is instead swept by steps `s`, lane `k`
+//! holding cell `(i + k, s - k)`: all lanes of one step are independent, so one step is a handful
+//! of SIMD instructions for `L` cells. The neighbours come from the previous two steps:
+//!
+//! ```text
+//! left (i+k,   s-k-1) = prev[k]        up   (i+k-1, s-k)   = prev[k-1]   (lane 0: row above)
+//! diag (i+k-1, s-k-1) = prev2[k-1]     (lane 0: row above)
+//! ```
+//!
+//! The local costs of a step need `y[s-k]` for `k = 0..L`, which is contiguous when `y` is stored
+//! reversed and dimension-major ([`RevSeq`]); the query strip is transposed once per strip.
+//! Out-of-range lanes compute finite junk that only ever flows to other out-of-range cells, except
+//! columns `< 0`, which stay `+inf` because everything before the first step is `+inf`.
+
+use crate::lanes::{self, PAD, V};
+
+/// A sequence stored reversed and dimension-major with `PAD` zeros on both sides:
+/// component `k` of element `len - 1 - p` is at `data[k * stride + PAD + p]`.
+///
+/// A suffix `y[len - r..]` is the prefix `p < r` of this storage, which is how the `MatchQuery`
+/// window and reference sets reuse it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RevSeq<'a> {
+    pub(crate) data: &'a [f32],
+    pub(crate) stride: usize,
+}
+
+impl RevSeq<'_> {
+    /// Appends the storage of `y` (`m` elements of dimension `dim`, row-major) to `out`.
+    pub(crate) fn store(y: &[f32], dim: usize, out: &mut Vec<f32>) {
+        let m = y.len() / dim;
+        let stride = m + 2 * PAD;
+        let start = out.len();
+        out.resize(start + dim * stride, 0.0);
+        let block = &mut out[start..];
+        for (j, row) in y.chunks_exact(dim).enumerate() {
+            for (k, &v) in row.iter().enumerate() {
+                block[k * stride + PAD + (m - 1 - j)] = v;
+            }
+        }
+    }
+}
+
+/// What to align: `rows` query elements (row-major, `dim` each) against the suffix of length
+/// `cols` of a stored sequence.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Problem<'a> {
+    pub(crate) x: &'a [f32],
+    pub(crate) y: RevSeq<'a>,
+    pub(crate) dim: usize,
+    pub(crate) cols: usize,
+    /// Sakoe-Chiba half-width: cells with `|i - j| > band` are forbidden.
+    pub(crate) band: Option<usize>,
+    /// `+inf` is returned once the result must exceed this (`+inf`: never abandon).
+    pub(crate) max_cost: f32,
+}
+
+lanes::dispatch! {
+    /// DTW cost of `problem` (SPEC section 2), `+inf` if no path or abandoned.
+    pub(crate) fn dtw_cost(problem: &Problem<'_>, scratch: &mut Vec<f32>) -> f32
+        => kernel, lanes: (16, 8, 8)
+}
+
+#[inline(always)]
+fn kernel<const L: usize, const FMA: bool>(p: &Problem<'_>, scratch: &mut Vec<f32>) -> f32 {
+    match p.band {
+        Some(w) => strips::<L, FMA, true>(p, w, scratch),
+        None => strips::<L, FMA, false>(p, 0, scratch),
+    }
+}
+
+#[inline(always)]
+fn strips<const L: usize, const FMA: bool, const BANDED: bool>(
+    p: &Problem<'_>,
+    w: usize,
+    scratch: &mut Vec<f32>,
+) -> f32 {
+    let (dim, r) = (p.dim, p.cols);
+    let n = p.x.len() / dim;
+    let inf = f32::INFINITY;
+    // above[j + 1] = D(i - 1, j) for the strip starting at row i; above[0] = D(i - 1, -1), which is
+    // 0 above the first row so that D(0, 0) = c(0, 0).
+    scratch.clear();
+    scratch.resize(r + L + 1, inf);
+    let above = &mut scratch[..];
+    above[0] = 0.0;
+    let mut xs: Vec<V<L>> = vec![[0.0; L]; dim];
+    let two_k: V<L> = std::array::from_fn(|k| 2.0 * k as f32);
+    let wf = w as f32;
+    let mut result = inf;
+    let mut i = 0;
+    while i < n {
+        for (k, xk) in xs.iter_mut().enumerate() {
+            *xk = std::array::from_fn(|lane| if i + lane < n { p.x[(i + lane) * dim + k] } else { 0.0 });
+        }
+        let last_strip = i + L >= n;
+        let kf = if last_strip { n - 1 - i } else { usize::MAX };
+        let mut s_lo = 0;
+        let mut s_hi = r + L - 2;
+        if BANDED {
+            s_lo = i.saturating_sub(w);
+            s_hi = s_hi.min(i + 2 * (L - 1) + w);
+        }
+        let mut prev = lanes::splat::<L>(inf);
+        let mut prev2 = prev;
+        let fi = i as f32;
+        for s in s_lo..=s_hi {
+            let at = PAD + r - 1 - s;
+            let mut acc = lanes::splat::<L>(0.0);
+            for (k, xk) in xs.iter().enumerate() {
+                acc = lanes::sq_diff_acc::<L, FMA>(acc, *xk, lanes::load::<L>(p.y.data, k * p.y.stride + at));
+            }
+            let mut c = lanes::sqrt(acc);
+            if BANDED {
+                let off = fi - s as f32;
+                c = std::array::from_fn(|k| if (off + two_k[k]).abs() > wf { inf } else { c[k] });
+            }
+            let up = lanes::shift_in(above[s + 1], prev);
+            let diag = lanes::shift_in(above[s], prev2);
+            let cur = lanes::add(c, lanes::min(lanes::min(prev, up), diag));
+            if s >= L - 1 && s - (L - 1) < r {
+                above[s - (L - 1) + 1] = cur[L - 1];
+            }
+            if last_strip && s == r - 1 + kf {
+                result = cur[kf];
+            }
+            prev2 = prev;
+            prev = cur;
+        }
+        above[0] = inf;
+        if !last_strip && p.max_cost < inf {
+            let row_min = above[1..=r].iter().fold(inf, |a, &b| if b < a { b } else { a });
+            if row_min > p.max_cost {
+                return inf;
+            }
+        }
+        i += L;
+    }
+    if result > p.max_cost { inf } else { result }
+}
