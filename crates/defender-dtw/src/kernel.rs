@@ -141,3 +141,76 @@ fn strips<const L: usize, const FMA: bool, const BANDED: bool>(
     }
     if result > p.max_cost { inf } else { result }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lanes::Isa;
+
+    /// Every instruction set this CPU has (the integration tests only run the detected one).
+    pub(crate) fn available() -> Vec<Isa> {
+        let best = Isa::detect();
+        [Isa::Avx512, Isa::Avx2, Isa::Portable]
+            .into_iter()
+            .filter(|&i| i == Isa::Portable || best == Isa::Avx512 || (best == Isa::Avx2 && i == Isa::Avx2))
+            .collect()
+    }
+
+    fn naive(x: &[f32], y: &[f32], dim: usize, band: Option<usize>) -> f64 {
+        let (n, m) = (x.len() / dim, y.len() / dim);
+        let mut d = vec![f64::INFINITY; (n + 1) * (m + 1)];
+        d[0] = 0.0;
+        for i in 0..n {
+            for j in 0..m {
+                if band.is_some_and(|w| i.abs_diff(j) > w) {
+                    continue;
+                }
+                let c = (0..dim)
+                    .map(|k| (f64::from(x[i * dim + k]) - f64::from(y[j * dim + k])).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let b = d[i * (m + 1) + j].min(d[i * (m + 1) + j + 1]).min(d[(i + 1) * (m + 1) + j]);
+                d[(i + 1) * (m + 1) + j + 1] = c + b;
+            }
+        }
+        d[n * (m + 1) + m]
+    }
+
+    #[test]
+    fn every_instruction_set_matches_naive() {
+        let mut state = 12345u32;
+        let mut rnd = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 * 4.0 - 2.0
+        };
+        for &(n, m, dim, band) in &[
+            (1, 1, 1, None),
+            (3, 40, 2, None),
+            (17, 16, 11, None),
+            (40, 33, 3, Some(4)),
+            (40, 33, 3, Some(8)),
+            (70, 90, 5, Some(30)),
+        ] {
+            let x: Vec<f32> = (0..n * dim).map(|_| rnd()).collect();
+            let y: Vec<f32> = (0..m * dim).map(|_| rnd()).collect();
+            let mut storage = Vec::new();
+            RevSeq::store(&y, dim, &mut storage);
+            let problem = Problem {
+                x: &x,
+                y: RevSeq { data: &storage, stride: m + 2 * PAD },
+                dim,
+                cols: m,
+                band,
+                max_cost: f32::INFINITY,
+            };
+            let want = naive(&x, &y, dim, band);
+            for isa in available() {
+                let got = dtw_cost(isa, &problem, &mut Vec::new());
+                assert!(
+                    f64::from(got) == want || (f64::from(got) - want).abs() <= 1e-5 * want.max(1.0),
+                    "{isa:?} {n}x{m}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}

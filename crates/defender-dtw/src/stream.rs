@@ -385,3 +385,52 @@ fn advance_kernel<const L: usize, const FMA: bool>(dp: &mut [f32], cost: &[f32],
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lanes::Isa;
+    use crate::{Dtw, dtw};
+
+    #[test]
+    fn every_instruction_set_matches_batch() {
+        let dim = 3;
+        let seq = |len: usize, phase: f32| -> Vec<f32> {
+            (0..len * dim).map(|i| (i as f32 * 0.61 + phase).sin()).collect()
+        };
+        let refs: Vec<Vec<f32>> = (0..11).map(|i| seq(5 + 3 * i, i as f32)).collect();
+        let slices: Vec<&[f32]> = refs.iter().map(Vec::as_slice).collect();
+        let views = [
+            View::new(QueryWindow::All, RefWindow::All),
+            View::new(QueryWindow::All, RefWindow::Last(4)),
+            View::new(QueryWindow::Last(3), RefWindow::All),
+            View::new(QueryWindow::All, RefWindow::MatchQuery),
+        ];
+        let x = seq(30, 0.3);
+        let best = Isa::detect();
+        for isa in [Isa::Avx512, Isa::Avx2, Isa::Portable] {
+            if isa != Isa::Portable && best != Isa::Avx512 && isa != best {
+                continue;
+            }
+            let mut set = References::new(dim, &slices).unwrap();
+            std::sync::Arc::get_mut(&mut set.inner).unwrap().isa = isa;
+            let mut stream = set.stream(&views).unwrap();
+            for (t, xt) in x.chunks_exact(dim).enumerate() {
+                stream.push(xt).unwrap();
+                let xs = &x[..(t + 1) * dim];
+                for (v, view) in views.iter().enumerate() {
+                    for (y, &got) in refs.iter().zip(stream.costs(v)) {
+                        let (n, m) = (t + 1, y.len() / dim);
+                        let xw = &xs[(n - view.query_len(n)) * dim..];
+                        let yw = &y[(m - view.ref_len(n, m)) * dim..];
+                        let want = dtw(xw, yw, dim, &Dtw::euclidean()).unwrap();
+                        assert!(
+                            (got - want).abs() <= 1e-5 * want.max(1.0),
+                            "{isa:?} {view:?}: {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
