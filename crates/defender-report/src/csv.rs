@@ -127,7 +127,8 @@ mod tests {
         let err = CsvFile::parse(path, "a,b\n1,2,3\n", "a,b", NAMES).err().unwrap();
         assert_eq!(err.to_string(), "x.csv:2: 3 fields, the header has 2");
         let file = CsvFile::parse(path, "a,b\n1,2\n1,nan\n", "a,b", NAMES).unwrap();
-        let errs: Vec<String> = file.rows().filter_map(|r| r.finite(1).err()).map(|e| e.to_string()).collect();
+        let errs: Vec<String> =
+            file.rows().filter_map(|r| r.finite(1).err()).map(|e| e.to_string()).collect();
         assert_eq!(errs, vec!["x.csv:3: column b: NaN is not a finite number".to_string()]);
         let file = CsvFile::parse(path, "a,b\nx,2\n", "a,b", NAMES).unwrap();
         let err = file.rows().next().unwrap().get::<u32>(0).err().unwrap();

@@ -94,10 +94,9 @@ pub fn load_runs<P: AsRef<Path>>(paths: &[P]) -> Result<RunSet> {
     for dir in find_run_dirs(paths)? {
         match Run::load(&dir) {
             Ok(run) => set.runs.push(run),
-            Err(ReportError::Incomplete { dir }) => set.skipped.push(SkippedRun {
-                dir,
-                reason: "incomplete (summary.json has \"complete\": false)".into(),
-            }),
+            Err(ReportError::Incomplete { dir }) => set
+                .skipped
+                .push(SkippedRun { dir, reason: "incomplete (summary.json has \"complete\": false)".into() }),
             Err(err) => return Err(err),
         }
     }
@@ -112,11 +111,7 @@ pub fn load_runs<P: AsRef<Path>>(paths: &[P]) -> Result<RunSet> {
             ),
         };
         if let Some(first) = seen.get(&what) {
-            return Err(ReportError::Duplicate {
-                first: first.to_path_buf(),
-                second: run.dir.clone(),
-                what,
-            });
+            return Err(ReportError::Duplicate { first: first.to_path_buf(), second: run.dir.clone(), what });
         }
         seen.insert(what, &run.dir);
     }

@@ -13,9 +13,7 @@ pub enum ReportError {
         path: PathBuf,
     },
     /// A path holds no run directory (no `summary.json` in it, nor one or two levels below it).
-    #[error(
-        "{path}: no run directory found (looked for summary.json in it and one or two levels below it)"
-    )]
+    #[error("{path}: no run directory found (looked for summary.json in it and one or two levels below it)")]
     NoRuns {
         /// The path searched.
         path: PathBuf,

@@ -118,11 +118,10 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             .or_default()
             .push(run);
     }
-    let budgets: BTreeMap<(&str, &str), usize> =
-        groups.keys().fold(BTreeMap::new(), |mut m, (e, a, _)| {
-            *m.entry((*e, *a)).or_default() += 1;
-            m
-        });
+    let budgets: BTreeMap<(&str, &str), usize> = groups.keys().fold(BTreeMap::new(), |mut m, (e, a, _)| {
+        *m.entry((*e, *a)).or_default() += 1;
+        m
+    });
     let mut plots = Plots::default();
     for ((env, algo, budget), by_filter) in &groups {
         let mut stem = format!("{}_{}", file_safe(env), file_safe(algo));
@@ -150,7 +149,8 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         for kind in PlotKind::ALL {
             let mut bands = Vec::new();
             for (i, (filter, seeds)) in by_filter.iter().enumerate() {
-                let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r, kind, options)).collect();
+                let curves: Vec<(Vec<f64>, Vec<f64>)> =
+                    seeds.iter().map(|r| curve(r, kind, options)).collect();
                 let grid = match kind {
                     PlotKind::Evaluation => Grid::Union,
                     _ => Grid::Linear(options.grid_points),
@@ -159,7 +159,11 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 match band(&curves, grid) {
                     // BTreeMap order puts the bare run (None) first: colour 0.
                     Some((xs, mean, lo, hi)) => {
-                        let color = if filter.is_none() { 0 } else { i + usize::from(!by_filter.contains_key(&None)) };
+                        let color = if filter.is_none() {
+                            0
+                        } else {
+                            i + usize::from(!by_filter.contains_key(&None))
+                        };
                         bands.push(Band { label, color, xs, mean, lo, hi });
                     }
                     None => plots.notes.push(format!(
@@ -269,8 +273,11 @@ fn band(curves: &[(Vec<f64>, Vec<f64>)], grid: Grid) -> Option<BandData> {
     let xs = match grid {
         Grid::Linear(points) => linspace(start, end, points),
         Grid::Union => {
-            let mut all: Vec<f64> =
-                curves.iter().flat_map(|(xs, _)| xs.iter().copied()).filter(|x| (start..=end).contains(x)).collect();
+            let mut all: Vec<f64> = curves
+                .iter()
+                .flat_map(|(xs, _)| xs.iter().copied())
+                .filter(|x| (start..=end).contains(x))
+                .collect();
             all.sort_by(f64::total_cmp);
             all.dedup();
             all
@@ -316,8 +323,9 @@ fn write_chart(chart: &Chart, base: &Path, options: &PlotOptions) -> Result<Vec<
     };
     let mut pixels = vec![0u8; w as usize * h as usize * 3];
     {
-        let backend = BitMapBackend::<plotters::backend::RGBPixel>::with_buffer_and_format(&mut pixels, (w, h))
-            .map_err(|e| plot_err(&png_path)(e.to_string()))?;
+        let backend =
+            BitMapBackend::<plotters::backend::RGBPixel>::with_buffer_and_format(&mut pixels, (w, h))
+                .map_err(|e| plot_err(&png_path)(e.to_string()))?;
         draw(backend.into_drawing_area(), chart).map_err(plot_err(&png_path))?;
     }
     let mut png_bytes = Vec::new();
@@ -375,9 +383,19 @@ where
     let fold = |f: fn(&Band) -> &Vec<f64>, init: f64, op: fn(f64, f64) -> f64| {
         chart.bands.iter().flat_map(|b| f(b).iter().copied()).fold(init, op)
     };
-    let (x0, x1) = range(fold(|b| &b.xs, f64::INFINITY, f64::min), fold(|b| &b.xs, f64::NEG_INFINITY, f64::max), 0.0, 0.0);
+    let (x0, x1) = range(
+        fold(|b| &b.xs, f64::INFINITY, f64::min),
+        fold(|b| &b.xs, f64::NEG_INFINITY, f64::max),
+        0.0,
+        0.0,
+    );
     // Head room above the curves for the legend.
-    let (y0, y1) = range(fold(|b| &b.lo, f64::INFINITY, f64::min), fold(|b| &b.hi, f64::NEG_INFINITY, f64::max), 0.05, 0.35);
+    let (y0, y1) = range(
+        fold(|b| &b.lo, f64::INFINITY, f64::min),
+        fold(|b| &b.hi, f64::NEG_INFINITY, f64::max),
+        0.05,
+        0.35,
+    );
     let mut plot = ChartBuilder::on(&root)
         .caption(&chart.title, (FONT_NAME, 22))
         .margin(15)
@@ -407,8 +425,10 @@ where
             plot.draw_series(std::iter::once(Polygon::new(outline, c.mix(0.18).filled()))).map_err(e)?;
         } else {
             let pairs = band.xs.iter().zip(band.lo.iter().zip(&band.hi));
-            plot.draw_series(pairs.map(|(&x, (&lo, &hi))| PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(2))))
-                .map_err(e)?;
+            plot.draw_series(
+                pairs.map(|(&x, (&lo, &hi))| PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(2))),
+            )
+            .map_err(e)?;
         }
     }
     for band in &chart.bands {

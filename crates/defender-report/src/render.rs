@@ -48,7 +48,11 @@ pub fn render(table: &Table, format: Format) -> String {
 fn number(value: f64, decimals: usize) -> String {
     let text = format!("{value:.decimals$}");
     // `-0` and `-0.0` read as noise.
-    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') { text.replace('-', "") } else { text }
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.replace('-', "")
+    } else {
+        text
+    }
 }
 
 fn pm(stat: &Stat, decimals: usize, sep: &str) -> String {
@@ -138,9 +142,8 @@ fn capitalise(text: &str) -> String {
 /// left-aligned, the others right-aligned.
 fn write_padded(out: &mut String, cells: &[Vec<String>], left: usize) {
     let columns = cells.first().map_or(0, Vec::len);
-    let widths: Vec<usize> = (0..columns)
-        .map(|c| cells.iter().map(|r| r[c].chars().count()).max().unwrap_or(0).max(3))
-        .collect();
+    let widths: Vec<usize> =
+        (0..columns).map(|c| cells.iter().map(|r| r[c].chars().count()).max().unwrap_or(0).max(3)).collect();
     for (i, row) in cells.iter().enumerate() {
         out.push('|');
         for (c, cell) in row.iter().enumerate() {
@@ -187,7 +190,8 @@ fn tex_escape(text: &str) -> String {
 fn latex(table: &Table) -> String {
     let demos = table.varies_num_demos();
     let labels = if demos { 3 } else { 2 };
-    let mut out = String::from("% defender report: needs \\usepackage{booktabs} and \\usepackage{graphicx}\n");
+    let mut out =
+        String::from("% defender report: needs \\usepackage{booktabs} and \\usepackage{graphicx}\n");
     for mode in sections(table) {
         let rows: Vec<&Row> = table.rows_for(mode).collect();
         // Columns: one group of three per (task, budget); the budget is named only when a task

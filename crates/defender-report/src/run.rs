@@ -382,8 +382,8 @@ struct RawDefender {
 }
 
 fn parse_config(path: &Path, text: &str) -> Result<RunConfig> {
-    let raw: RawConfig =
-        toml::from_str(text).map_err(|e| ReportError::Toml { path: path.to_path_buf(), source: Box::new(e) })?;
+    let raw: RawConfig = toml::from_str(text)
+        .map_err(|e| ReportError::Toml { path: path.to_path_buf(), source: Box::new(e) })?;
     let invalid = |message: String| ReportError::Invalid { path: path.to_path_buf(), message };
     let budget = match (raw.total_steps, raw.total_episodes) {
         (n, 0) if n > 0 => Budget::Steps(n),
@@ -419,10 +419,7 @@ fn parse_metrics(path: &Path, text: &str) -> Result<Vec<Episode>> {
     let mut episodes: Vec<Episode> = Vec::new();
     for row in file.rows() {
         let outcome = Outcome::parse(row.text(4)).ok_or_else(|| {
-            row.error(format!(
-                "column outcome: {:?} is not one of crashed, filtered, truncated",
-                row.text(4)
-            ))
+            row.error(format!("column outcome: {:?} is not one of crashed, filtered, truncated", row.text(4)))
         })?;
         let episode = Episode {
             episode: row.get(0)?,

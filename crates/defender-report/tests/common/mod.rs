@@ -1,0 +1,168 @@
+//! Run directories for tests, written exactly as docs/run-directory.md says `defender train`
+//! writes them. Shared with crates/defender-cli/tests/report_cli.rs (through `#[path]`).
+#![allow(dead_code, clippy::unwrap_used)]
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One run to write.
+#[derive(Debug, Clone)]
+pub struct RunSpec {
+    pub env: &'static str,
+    pub algo: &'static str,
+    pub seed: u64,
+    /// `(strategy, mode)`, `None` for a bare run.
+    pub defender: Option<(&'static str, &'static str)>,
+    /// One per training episode: `crashed`, `filtered` or `truncated`. Each episode is 100 steps
+    /// long and returns `10 * index + seed`.
+    pub outcomes: Vec<&'static str>,
+    /// The final evaluation's mean return; evaluations are made every 100 steps and rise linearly
+    /// to it.
+    pub acc_reward: f64,
+    pub wall_seconds: f64,
+}
+
+impl RunSpec {
+    pub fn new(algo: &'static str, seed: u64, defender: Option<(&'static str, &'static str)>) -> Self {
+        Self {
+            env: "Hopper-v5",
+            algo,
+            seed,
+            defender,
+            outcomes: vec!["truncated"; 4],
+            acc_reward: 100.0,
+            wall_seconds: 10.0,
+        }
+    }
+
+    /// `crashed` episodes first, then `filtered`, then `truncated`, `n` in all.
+    pub fn outcomes(mut self, n: usize, crashed: usize, filtered: usize) -> Self {
+        self.outcomes = (0..n)
+            .map(|i| {
+                if i < crashed {
+                    "crashed"
+                } else if i < crashed + filtered {
+                    "filtered"
+                } else {
+                    "truncated"
+                }
+            })
+            .collect();
+        self
+    }
+
+    pub fn acc(mut self, acc_reward: f64) -> Self {
+        self.acc_reward = acc_reward;
+        self
+    }
+
+    pub fn wall(mut self, wall_seconds: f64) -> Self {
+        self.wall_seconds = wall_seconds;
+        self
+    }
+
+    /// A directory name: `hopper-v5_sac_meandemow5-meandemow10_state_s0`.
+    pub fn dir_name(&self) -> String {
+        let filter = match self.defender {
+            None => "bare".to_string(),
+            Some((s, m)) => format!("{}_{m}", s.replace('/', "-")),
+        };
+        format!("{}_{}_{}_s{}", self.env, self.algo, filter, self.seed).to_lowercase()
+    }
+
+    /// Writes the run directory `parent/dir_name()` and returns its path.
+    pub fn write(&self, parent: &Path) -> PathBuf {
+        let dir = parent.join(self.dir_name());
+        std::fs::create_dir_all(&dir).unwrap();
+        let n = self.outcomes.len() as u64;
+        let steps = 100 * n;
+        let mut config = format!(
+            "env = \"{}\"\nalgo = \"{}\"\nseed = {}\ntotal_steps = {steps}\ntotal_episodes = 0\n",
+            self.env, self.algo, self.seed
+        );
+        if let Some((strategy, mode)) = self.defender {
+            write!(
+                config,
+                "\n[defender]\nstrategy = \"{strategy}\"\nmode = \"{mode}\"\nr_task = -1.0\nnum_demos = 50\n\
+                 demos = \"data/demos/{}.npz\"\n",
+                self.env
+            )
+            .unwrap();
+        }
+        config.push_str("\n[algo_config]\nlearning_rate = 0.0003\nbatch_size = 256\n");
+        std::fs::write(dir.join("config.toml"), config).unwrap();
+
+        let mut metrics = String::from("episode,total_steps,return,length,outcome,wall_seconds\n");
+        for (i, outcome) in self.outcomes.iter().enumerate() {
+            let i = i as u64;
+            let wall = self.wall_seconds * (i + 1) as f64 / n as f64;
+            writeln!(metrics, "{i},{},{},100,{outcome},{wall}", 100 * (i + 1), 10 * i + self.seed).unwrap();
+        }
+        std::fs::write(dir.join("metrics.csv"), metrics).unwrap();
+
+        let mut eval = String::from("total_steps,mean_return,std_return,mean_length,episodes\n");
+        for k in 1..=n {
+            let mean = self.acc_reward * k as f64 / n as f64;
+            writeln!(eval, "{},{mean},1.5,100.0,10", 100 * k).unwrap();
+        }
+        std::fs::write(dir.join("eval.csv"), eval).unwrap();
+
+        let count = |o: &str| self.outcomes.iter().filter(|x| **x == o).count() as f64;
+        let crash_pct = count("crashed") * 100.0 / n as f64;
+        let filtered_pct = count("filtered") * 100.0 / n as f64;
+        let (strategy, mode) = match self.defender {
+            None => ("null".to_string(), "null".to_string()),
+            Some((s, m)) => (format!("\"{s}\""), format!("\"{m}\"")),
+        };
+        let summary = format!(
+            "{{\n  \"env\": \"{}\", \"algo\": \"{}\", \"seed\": {},\n  \"strategy\": {strategy},\n  \
+             \"mode\": {mode},\n  \"acc_reward\": {:?},\n  \"crash_pct\": {crash_pct:?},\n  \
+             \"filtered_pct\": {filtered_pct:?},\n  \"episodes\": {n}, \"steps\": {steps}, \
+             \"filtered_steps\": {},\n  \"wall_seconds\": {:?}, \"steps_per_second\": {:?},\n  \
+             \"complete\": true\n}}\n",
+            self.env,
+            self.algo,
+            self.seed,
+            self.acc_reward,
+            count("filtered") as u64,
+            self.wall_seconds,
+            steps as f64 / self.wall_seconds
+        );
+        std::fs::write(dir.join("summary.json"), summary).unwrap();
+        dir
+    }
+}
+
+pub const A: Option<(&str, &str)> = Some(("MeanDemoW5/MeanDemoW10", "state"));
+pub const B: Option<(&str, &str)> = Some(("MinDemoW5/MinDemoW10", "state"));
+
+/// The main fixture: SAC and TD3 on Hopper-v5, seeds 0, 1, 2, bare and two DEFENDER strategies
+/// (state mode); 18 runs. The values are chosen so that the table can be computed by hand (see
+/// the tests that use it).
+pub fn paper_fixture(root: &Path) -> Vec<PathBuf> {
+    let mut specs = Vec::new();
+    // SAC bare: acc 100, 200, 300; crashes 2, 1, 3 of 4; wall 10, 20, 40.
+    for (seed, acc, crashed, wall) in [(0, 100.0, 2, 10.0), (1, 200.0, 1, 20.0), (2, 300.0, 3, 40.0)] {
+        specs.push(RunSpec::new("sac", seed, None).outcomes(4, crashed, 0).acc(acc).wall(wall));
+    }
+    // SAC A: acc 110, 110, 140; crashes 1, 0, 1 of 4, filtered 1, 2, 1; wall 15, 30, 40.
+    for (seed, acc, crashed, filtered, wall) in
+        [(0, 110.0, 1, 1, 15.0), (1, 110.0, 0, 2, 30.0), (2, 140.0, 1, 1, 40.0)]
+    {
+        specs.push(RunSpec::new("sac", seed, A).outcomes(4, crashed, filtered).acc(acc).wall(wall));
+    }
+    // SAC B: acc -4 always; no crash, all filtered; wall 2x the bare's.
+    for (seed, wall) in [(0, 20.0), (1, 40.0), (2, 80.0)] {
+        specs.push(RunSpec::new("sac", seed, B).outcomes(4, 0, 4).acc(-4.0).wall(wall));
+    }
+    // TD3 bare: acc 50, 60, 70; crashes 4, 4, 2 of 5; wall 100 each.
+    for (seed, acc, crashed) in [(0, 50.0, 4), (1, 60.0, 4), (2, 70.0, 2)] {
+        specs.push(RunSpec::new("td3", seed, None).outcomes(5, crashed, 0).acc(acc).wall(100.0));
+    }
+    // TD3 A and B: acc 80 and 10; 1 and 0 crashes of 5; wall 150 and 300.
+    for seed in 0..3 {
+        specs.push(RunSpec::new("td3", seed, A).outcomes(5, 1, 1).acc(80.0).wall(150.0));
+        specs.push(RunSpec::new("td3", seed, B).outcomes(5, 0, 5).acc(10.0).wall(300.0));
+    }
+    specs.iter().map(|s| s.write(root)).collect()
+}
