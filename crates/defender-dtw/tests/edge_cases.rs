@@ -1,4 +1,5 @@
 //! Edge cases and errors at the API boundary.
+#![allow(clippy::unwrap_used)] // test helpers outside #[test] fns: a panic is a failed test
 
 mod common;
 

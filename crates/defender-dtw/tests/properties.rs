@@ -1,4 +1,5 @@
 //! Property tests: every fast path equals the naive DTW (SPEC sections 2 and 3).
+#![allow(clippy::unwrap_used)] // test helpers outside #[test] fns: a panic is a failed test
 
 mod common;
 

@@ -1,0 +1,90 @@
+//! Criterion benches of defender-dtw: batch DTW (1000 x 1000, d = 11, the dtaidistance shape),
+//! a reference-set alignment, and one streaming push for the filter's view sets.
+//!
+//! `cargo bench -p defender-dtw --bench dtw` (figures in docs/benchmarks.md).
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use defender_dtw::{Dtw, QueryWindow, RefWindow, References, View, dtw};
+
+/// A random walk, like a trajectory (fixed LCG, no dependency).
+fn walk(len: usize, dim: usize, seed: u64) -> Vec<f32> {
+    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    let mut pos = vec![0.0f32; dim];
+    let mut out = Vec::with_capacity(len * dim);
+    for _ in 0..len {
+        for p in &mut pos {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            *p += ((state >> 40) as f32 / (1u64 << 24) as f32) - 0.5;
+            out.push(*p);
+        }
+    }
+    out
+}
+
+fn batch(c: &mut Criterion) {
+    let (n, m, dim) = (1000, 1000, 11);
+    let (x, y) = (walk(n, dim, 1), walk(m, dim, 2));
+    let mut g = c.benchmark_group("batch");
+    g.throughput(Throughput::Elements((n * m) as u64));
+    g.bench_function("dtw_1000x1000_d11", |b| b.iter(|| dtw(black_box(&x), &y, dim, &Dtw::euclidean())));
+    g.bench_function("dtw_1000x1000_d11_band100", |b| {
+        b.iter(|| dtw(black_box(&x), &y, dim, &Dtw::euclidean().with_band(100)))
+    });
+    let seqs: Vec<Vec<f32>> = (0..10).map(|i| walk(m, dim, 10 + i)).collect();
+    let slices: Vec<&[f32]> = seqs.iter().map(Vec::as_slice).collect();
+    let refs = References::new(dim, &slices).unwrap_or_else(|e| panic!("{e}"));
+    g.throughput(Throughput::Elements((10 * n * m) as u64));
+    g.bench_function("align_10_refs_1000x1000_d11", |b| {
+        b.iter(|| refs.align(black_box(&x), &Dtw::euclidean()))
+    });
+    g.finish();
+}
+
+/// One push at query length ~500 (the middle of an episode), against `count` references.
+fn push(c: &mut Criterion) {
+    use QueryWindow as Q;
+    use RefWindow as R;
+    let (m, dim) = (1000, 11);
+    let query = walk(m, dim, 3);
+    let sets: [(&str, usize, Vec<View>); 3] = [
+        ("100refs_all_all", 100, vec![View::new(Q::All, R::All)]),
+        ("50refs_all_all+last10_all", 50, vec![View::new(Q::All, R::All), View::new(Q::Last(10), R::All)]),
+        (
+            "50refs_all_last5+all_last10+last5_last5",
+            50,
+            vec![
+                View::new(Q::All, R::Last(5)),
+                View::new(Q::All, R::Last(10)),
+                View::new(Q::Last(5), R::Last(5)),
+            ],
+        ),
+    ];
+    let mut g = c.benchmark_group("push");
+    for (name, count, views) in sets {
+        let seqs: Vec<Vec<f32>> = (0..count).map(|i| walk(m, dim, 10 + i as u64)).collect();
+        let slices: Vec<&[f32]> = seqs.iter().map(Vec::as_slice).collect();
+        let refs = References::new(dim, &slices).unwrap_or_else(|e| panic!("{e}"));
+        let mut stream = refs.stream(&views).unwrap_or_else(|e| panic!("{e}"));
+        let mut t = 0;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                if t == 1000 {
+                    stream.reset();
+                    t = 0;
+                }
+                stream.push(black_box(&query[t * dim..(t + 1) * dim])).unwrap_or_else(|e| panic!("{e}"));
+                t += 1;
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).measurement_time(std::time::Duration::from_secs(3));
+    targets = batch, push
+}
+criterion_main!(benches);
