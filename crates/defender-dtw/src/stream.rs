@@ -20,7 +20,7 @@
 
 use crate::error::Result;
 use crate::kernel;
-use crate::lanes::{self, GROUP};
+use crate::lanes::{self, GROUP, V};
 use crate::references::{References, check_element};
 use crate::view::{QueryWindow, RefWindow, View};
 
@@ -261,16 +261,14 @@ impl Stream {
                     self.tmp.clear();
                     self.tmp.extend_from_slice(&w.init);
                     let rows = rows.min(n);
-                    for r in n - rows..n {
-                        let s = r % self.ring_rows;
-                        advance(
-                            inner.isa,
-                            &mut self.tmp,
-                            &self.ring[s * row_len..(s + 1) * row_len],
-                            w.width,
-                            cols,
-                        );
-                    }
+                    let ring = Ring {
+                        data: &self.ring,
+                        rows: self.ring_rows,
+                        row_len,
+                        first: n - rows,
+                        count: rows,
+                    };
+                    advance_from_ring(inner.isa, &mut self.tmp, ring, w.width, cols);
                     read_last_column(&self.tmp, w.width, out);
                 }
                 Plan::Match { rows, all } => {
@@ -355,6 +353,83 @@ fn cost_row_kernel<const L: usize, const FMA: bool>(
                 acc = lanes::sq_diff_acc::<L, FMA>(acc, lanes::splat(xk), *yk);
             }
             *o = lanes::sqrt(acc);
+        }
+    }
+}
+
+/// The cached cost rows `first..first + count` (query indices) of a ring of `rows` rows.
+#[derive(Debug, Clone, Copy)]
+struct Ring<'a> {
+    data: &'a [f32],
+    rows: usize,
+    row_len: usize,
+    first: usize,
+    count: usize,
+}
+
+impl Ring<'_> {
+    #[inline(always)]
+    fn row(&self, query_index: usize) -> &[f32] {
+        let s = query_index % self.rows;
+        &self.data[s * self.row_len..(s + 1) * self.row_len]
+    }
+}
+
+lanes::dispatch! {
+    /// Adds the ring's rows to `dp` (as [`advance`] once per row), four rows per sweep: the four
+    /// rows' min/add chains are independent, so they overlap instead of waiting on each other.
+    fn advance_from_ring(dp: &mut [f32], ring: Ring<'_>, width: usize, cols: usize) -> ()
+        => advance_from_ring_kernel, lanes: (GROUP, GROUP, GROUP)
+}
+
+#[inline(always)]
+fn advance_from_ring_kernel<const L: usize, const FMA: bool>(
+    dp: &mut [f32],
+    ring: Ring<'_>,
+    width: usize,
+    cols: usize,
+) {
+    let mut r = ring.first;
+    let end = ring.first + ring.count;
+    while r + 4 <= end {
+        advance_block::<L, 4>(dp, std::array::from_fn(|k| ring.row(r + k)), width, cols);
+        r += 4;
+    }
+    while r < end {
+        advance_block::<L, 1>(dp, [ring.row(r)], width, cols);
+        r += 1;
+    }
+}
+
+/// Adds `R` rows (cost rows `costs`, in order) to `dp` in one sweep over the columns: row `k`
+/// at column `t` needs row `k - 1` at `t` and `t - 1`, both already computed in this sweep.
+#[inline(always)]
+fn advance_block<const L: usize, const R: usize>(
+    dp: &mut [f32],
+    costs: [&[f32]; R],
+    width: usize,
+    cols: usize,
+) {
+    let inf = lanes::splat::<L>(f32::INFINITY);
+    let (dp, _) = dp.as_chunks_mut::<L>();
+    let costs = costs.map(|c| c.as_chunks::<L>().0);
+    for (g, d) in dp.chunks_exact_mut(width + 1).enumerate() {
+        let base = g * cols + (cols - 1 - width);
+        let c: [&[V<L>]; R] = costs.map(|c| &c[base..base + width + 1]);
+        // diag[k] = row k's upper-left neighbour, left[k] = row k's left neighbour.
+        let mut diag = [inf; R];
+        diag[0] = d[0];
+        d[0] = inf;
+        let mut left = [inf; R];
+        for t in 1..=width {
+            let mut up = d[t];
+            for k in 0..R {
+                let v = lanes::add(c[k][t], lanes::min(lanes::min(up, diag[k]), left[k]));
+                diag[k] = up;
+                left[k] = v;
+                up = v;
+            }
+            d[t] = up;
         }
     }
 }
