@@ -49,7 +49,7 @@ pub enum DtwError {
     /// A window length was zero (`Last(0)`), or a band / threshold setting was invalid.
     #[error("invalid setting {name}: {reason}")]
     InvalidSetting {
-        /// The setting (e.g. "views[2].query").
+        /// The setting (e.g. `views[2].query`).
         name: String,
         /// What was expected.
         reason: String,
