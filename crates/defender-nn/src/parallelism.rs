@@ -1,0 +1,63 @@
+//! How many threads the GEMMs of a network use.
+
+use std::num::NonZeroUsize;
+
+use faer::Par;
+
+/// Below this many multiply-adds a GEMM runs on one thread whatever the setting: splitting it
+/// costs more than it saves (a batch-1 forward, the 14-wide first layer of a critic).
+const PARALLEL_MIN_MACS: usize = 64 * 64 * 64;
+
+/// The threading of a network's matrix products.
+///
+/// Element-wise passes always run on the calling thread; only GEMMs big enough to gain
+/// (>= 64^3 multiply-adds) are split. Results are bit-identical for every setting: faer splits
+/// the output, never the reduction (tested).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Parallelism {
+    /// Everything on the calling thread.
+    Sequential,
+    /// Big GEMMs on this many threads of rayon's global pool.
+    Threads(NonZeroUsize),
+}
+
+impl Default for Parallelism {
+    /// `DEFENDER_NN_THREADS` if set (`1` forces sequential), else
+    /// `min(2, available cores)`: two threads are ~1.6x faster than one on 256-wide GEMMs on
+    /// the project's 2-core machine (see docs/benchmarks.md).
+    fn default() -> Self {
+        let from_env = std::env::var("DEFENDER_NN_THREADS").ok().and_then(|s| s.trim().parse::<usize>().ok());
+        let n = from_env
+            .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get().min(2)).unwrap_or(1));
+        Parallelism::threads(n)
+    }
+}
+
+impl Parallelism {
+    /// `Threads(n)` for `n >= 2`, `Sequential` for 0 or 1.
+    pub fn threads(n: usize) -> Self {
+        match NonZeroUsize::new(n) {
+            Some(n) if n.get() >= 2 => Parallelism::Threads(n),
+            _ => Parallelism::Sequential,
+        }
+    }
+
+    /// The number of threads (1 for `Sequential`).
+    pub fn num_threads(self) -> usize {
+        match self {
+            Parallelism::Sequential => 1,
+            Parallelism::Threads(n) => n.get(),
+        }
+    }
+
+    /// The faer setting for an `m x k` times `k x n` product.
+    #[inline]
+    pub(crate) fn for_gemm(self, m: usize, n: usize, k: usize) -> Par {
+        match self {
+            Parallelism::Threads(t) if m.saturating_mul(n).saturating_mul(k) >= PARALLEL_MIN_MACS => {
+                Par::Rayon(t)
+            }
+            _ => Par::Seq,
+        }
+    }
+}
