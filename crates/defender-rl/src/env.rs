@@ -66,6 +66,26 @@ pub trait Env {
     /// # Errors
     /// The action has the wrong length or non-finite values, or the environment needs a reset.
     fn step(&mut self, action: &[f64]) -> Result<Step>;
+
+    /// Writes whatever a checkpoint needs beyond the reset seed (a wrapper's learned model, its
+    /// optimiser and data) into the existing, empty directory `dir`. The trainer calls it at
+    /// episode boundaries only. Plain simulators keep no such state: the default writes nothing.
+    ///
+    /// # Errors
+    /// [`crate::EnvError::State`] if a file cannot be written.
+    fn save_state(&self, dir: &std::path::Path) -> Result<()> {
+        let _ = dir;
+        Ok(())
+    }
+
+    /// Restores what [`Env::save_state`] wrote into `dir`. The default reads nothing.
+    ///
+    /// # Errors
+    /// [`crate::EnvError::State`] if a file is missing or does not fit.
+    fn load_state(&mut self, dir: &std::path::Path) -> Result<()> {
+        let _ = dir;
+        Ok(())
+    }
 }
 
 impl<E: Env + ?Sized> Env for Box<E> {
@@ -86,5 +106,11 @@ impl<E: Env + ?Sized> Env for Box<E> {
     }
     fn step(&mut self, action: &[f64]) -> Result<Step> {
         (**self).step(action)
+    }
+    fn save_state(&self, dir: &std::path::Path) -> Result<()> {
+        (**self).save_state(dir)
+    }
+    fn load_state(&mut self, dir: &std::path::Path) -> Result<()> {
+        (**self).load_state(dir)
     }
 }

@@ -38,6 +38,14 @@ pub enum EnvError {
     /// The simulator failed (model loading, numerical error it cannot recover from, ...).
     #[error("simulator error: {0}")]
     Simulator(String),
+    /// Saving or loading an environment's checkpoint state failed.
+    #[error("environment state {path}: {reason}")]
+    State {
+        /// The file or directory.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
 }
 
 /// Result of the environment API.
@@ -55,4 +63,78 @@ pub(crate) fn check_vector(name: &str, values: &[f64], expected: usize) -> Resul
         return Err(EnvError::NonFinite { name: name.into(), index, value });
     }
     Ok(())
+}
+
+/// What can go wrong in training: the environment, a network, a checkpoint, a configuration.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RlError {
+    /// The environment failed.
+    #[error(transparent)]
+    Env(#[from] EnvError),
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: std::path::PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A hyperparameter or trainer setting is out of range.
+    #[error("invalid configuration: {field} = {value}: {expected}")]
+    Config {
+        /// The field (SB3 name).
+        field: &'static str,
+        /// The value given.
+        value: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+    /// The environment does not fit the agent (unbounded action space, dimensions differ).
+    #[error("environment '{env}' does not fit: {reason}")]
+    Incompatible {
+        /// The environment id.
+        env: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A checkpoint is missing a file, or a file does not match the agent it is loaded into.
+    #[error("checkpoint {path}: {reason}")]
+    Checkpoint {
+        /// The checkpoint file or directory.
+        path: std::path::PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A network operation failed (widths, safetensors I/O).
+    #[error(transparent)]
+    Nn(#[from] defender_nn::NnError),
+    /// A training hook returned an error.
+    #[error("hook {hook}: {source}")]
+    Hook {
+        /// Which callback.
+        hook: &'static str,
+        /// What the hook reported.
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// Training produced a non-finite value (diverged).
+    #[error("non-finite {what} at update {update}")]
+    Diverged {
+        /// What became NaN or infinite.
+        what: &'static str,
+        /// The gradient update count.
+        update: u64,
+    },
+}
+
+impl RlError {
+    /// An I/O error on `path`.
+    pub(crate) fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
+        Self::Io { path: path.into(), source }
+    }
+
+    /// A checkpoint error on `path`.
+    pub(crate) fn checkpoint(path: impl Into<std::path::PathBuf>, reason: impl Into<String>) -> Self {
+        Self::Checkpoint { path: path.into(), reason: reason.into() }
+    }
 }

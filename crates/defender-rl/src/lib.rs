@@ -1,16 +1,32 @@
-//! Reinforcement-learning substrate of defender: the environment API ([`Env`], [`Step`],
-//! [`BoxSpace`], [`TimeLimit`]), and (as they land) the replay buffer, SAC, TD3 and the trainer.
-//!
-//! The API follows Gymnasium's: `reset(seed)` returns the first observation; `step(action)`
-//! returns the next observation, the reward, and `terminated` (the task ended in an absorbing
-//! state: bootstrap with zero) kept apart from `truncated` (a time limit: bootstrap as usual).
+#![doc = include_str!("../README.md")]
 
+mod agent;
+mod algo;
+pub mod checkpoint;
+pub mod classic;
+mod config;
 mod env;
 mod error;
+mod nets;
+mod replay;
+mod sac;
+mod seed;
 mod space;
+mod td3;
 mod time_limit;
+mod trainer;
 
+pub use agent::{Agent, UpdateStats};
+pub use algo::{Algo, AlgoConfig};
+pub use config::{EntCoef, SacConfig, Td3Config};
 pub use env::{Env, Step, StepInfo};
-pub use error::{EnvError, Result};
+pub use error::{EnvError, Result, RlError};
+pub use replay::{Batch, ReplayBuffer, Transition};
+pub use sac::Sac;
+pub use seed::{SeedPurpose, derive_seed};
 pub use space::BoxSpace;
+pub use td3::Td3;
 pub use time_limit::TimeLimit;
+pub use trainer::{
+    Budget, EpisodeRecord, EvalRecord, HookError, Hooks, NoHooks, Outcome, RunEnd, Trainer, TrainerConfig,
+};

@@ -65,6 +65,12 @@ impl<E: Env> Env for TimeLimit<E> {
         }
         Ok(step)
     }
+    fn save_state(&self, dir: &std::path::Path) -> Result<()> {
+        self.inner.save_state(dir)
+    }
+    fn load_state(&mut self, dir: &std::path::Path) -> Result<()> {
+        self.inner.load_state(dir)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,89 @@
+//! Choosing an algorithm at run time (`algo = "sac"` and an `[algo_config]` table).
+
+use serde::{Deserialize, Serialize};
+
+use crate::agent::Agent;
+use crate::config::{SacConfig, Td3Config};
+use crate::error::RlError;
+use crate::sac::Sac;
+use crate::td3::Td3;
+
+/// An algorithm's name, as in the run directory's `algo` key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Algo {
+    /// Soft Actor-Critic.
+    Sac,
+    /// Twin Delayed DDPG.
+    Td3,
+}
+
+impl Algo {
+    /// `"sac"` or `"td3"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Sac => "sac",
+            Self::Td3 => "td3",
+        }
+    }
+}
+
+impl std::str::FromStr for Algo {
+    type Err = RlError;
+    fn from_str(s: &str) -> Result<Self, RlError> {
+        match s {
+            "sac" => Ok(Self::Sac),
+            "td3" => Ok(Self::Td3),
+            _ => Err(RlError::Config { field: "algo", value: s.into(), expected: "\"sac\" or \"td3\"" }),
+        }
+    }
+}
+
+/// The hyperparameters of one algorithm.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AlgoConfig {
+    /// SAC's.
+    Sac(SacConfig),
+    /// TD3's.
+    Td3(Td3Config),
+}
+
+impl AlgoConfig {
+    /// The defaults of `algo`.
+    pub fn default_for(algo: Algo) -> Self {
+        match algo {
+            Algo::Sac => Self::Sac(SacConfig::default()),
+            Algo::Td3 => Self::Td3(Td3Config::default()),
+        }
+    }
+
+    /// Which algorithm.
+    pub fn algo(&self) -> Algo {
+        match self {
+            Self::Sac(_) => Algo::Sac,
+            Self::Td3(_) => Algo::Td3,
+        }
+    }
+
+    /// Builds the agent for observations of `obs_dim` and actions of `act_dim` values, seeded
+    /// from the run's `seed`.
+    ///
+    /// # Errors
+    /// [`RlError::Config`] if a hyperparameter is out of range.
+    pub fn build(&self, obs_dim: usize, act_dim: usize, seed: u64) -> Result<Box<dyn Agent>, RlError> {
+        Ok(match self {
+            Self::Sac(c) => Box::new(Sac::new(c.clone(), obs_dim, act_dim, seed)?),
+            Self::Td3(c) => Box::new(Td3::new(c.clone(), obs_dim, act_dim, seed)?),
+        })
+    }
+}
+
+impl Serialize for AlgoConfig {
+    /// Serialises as the bare table of the variant's fields (the `[algo_config]` table).
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Sac(c) => c.serialize(s),
+            Self::Td3(c) => c.serialize(s),
+        }
+    }
+}

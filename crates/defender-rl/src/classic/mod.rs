@@ -1,0 +1,5 @@
+//! Small pure-Rust control tasks for fast tests (no simulator needed).
+
+mod pendulum;
+
+pub use pendulum::Pendulum;

@@ -1,0 +1,488 @@
+//! Soft Actor-Critic (Haarnoja et al. 2018, "SAC: Algorithms and Applications"), as
+//! Stable-Baselines3's `SAC` computes it: twin Q critics with Polyak targets, a tanh-squashed
+//! Gaussian policy, automatic entropy tuning.
+//!
+//! One gradient step (SB3 `SAC.train`, reordered only so that each network's forward pass is
+//! followed by its own backward pass):
+//!
+//! ```text
+//! alpha  = exp(log_alpha)                                  (the value before this step's update)
+//! a', logp' ~ pi(.|s');  y = r + gamma (1 - terminated) (min_i Qt_i(s', a') - alpha logp')
+//! a~, logp  ~ pi(.|s)
+//! alpha step on  -log_alpha (logp + target_entropy)
+//! critic step on 0.5 sum_i mean (Q_i(s, a) - y)^2
+//! actor step on  mean(alpha logp - min_i Q_i(s, a~))        (through the updated critics)
+//! Qt_i <- tau Q_i + (1 - tau) Qt_i
+//! ```
+
+use std::path::Path;
+
+use defender_nn::{Activation, Adam, AdamConfig, Mlp};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use crate::agent::{Agent, UpdateStats};
+use crate::checkpoint::{read_json, write_json};
+use crate::config::{EntCoef, SacConfig};
+use crate::error::RlError;
+use crate::nets::{
+    ScalarAdam, check_action_len, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows, save_net,
+    widths,
+};
+use crate::replay::{Batch, ReplayBuffer, Transition};
+use crate::seed::{SeedPurpose, derive_seed};
+
+/// SB3's bounds on the policy's log standard deviation.
+const LOG_STD_MIN: f32 = -20.0;
+const LOG_STD_MAX: f32 = 2.0;
+/// SB3's epsilon in `log(1 - tanh(u)^2 + eps)`.
+const TANH_EPS: f32 = 1e-6;
+/// `ln(sqrt(2 pi))`.
+const LN_SQRT_2PI: f32 = 0.918_938_5;
+
+/// Buffers of one gradient step, allocated once.
+#[derive(Debug, Clone)]
+struct Workspace {
+    batch: Batch,
+    /// `[s' | a']` rows for the target critics.
+    next_in: Vec<f32>,
+    /// `[s | a]` rows (replayed actions) for the critic loss.
+    critic_in: Vec<f32>,
+    /// `[s | a~]` rows (fresh policy actions) for the actor loss.
+    pi_in: Vec<f32>,
+    /// Actor output `[mean | log_std]` rows.
+    actor_out: Vec<f32>,
+    /// Noise `eps`, squashed actions `a~ = tanh(mean + std eps)`, and `std`, per row and dim.
+    eps: Vec<f32>,
+    pi_act: Vec<f32>,
+    std: Vec<f32>,
+    /// Whether `log_std` was inside the clamp (the clamp passes the gradient only there).
+    in_clamp: Vec<bool>,
+    /// `log pi(a~|s)` and `log pi(a'|s')` per row.
+    logp: Vec<f32>,
+    next_logp: Vec<f32>,
+    /// Bellman targets, per row.
+    target: Vec<f32>,
+    /// Scratch columns: Q values, output gradients.
+    q1: Vec<f32>,
+    q2: Vec<f32>,
+    grad1: Vec<f32>,
+    grad2: Vec<f32>,
+    /// `dL/d(input)` of a critic, and `dL/da~` accumulated over both critics.
+    dinput: Vec<f32>,
+    dact: Vec<f32>,
+    /// Gradient w.r.t. the actor output.
+    grad_actor: Vec<f32>,
+    /// One observation, for `act`.
+    obs1: Vec<f32>,
+}
+
+impl Workspace {
+    fn new(b: usize, o: usize, a: usize) -> Self {
+        Self {
+            batch: Batch::new(b, o, a),
+            next_in: vec![0.0; b * (o + a)],
+            critic_in: vec![0.0; b * (o + a)],
+            pi_in: vec![0.0; b * (o + a)],
+            actor_out: vec![0.0; b * 2 * a],
+            eps: vec![0.0; b * a],
+            pi_act: vec![0.0; b * a],
+            std: vec![0.0; b * a],
+            in_clamp: vec![false; b * a],
+            logp: vec![0.0; b],
+            next_logp: vec![0.0; b],
+            target: vec![0.0; b],
+            q1: vec![0.0; b],
+            q2: vec![0.0; b],
+            grad1: vec![0.0; b],
+            grad2: vec![0.0; b],
+            dinput: vec![0.0; b * (o + a)],
+            dact: vec![0.0; b * a],
+            grad_actor: vec![0.0; b * 2 * a],
+            obs1: vec![0.0; o],
+        }
+    }
+}
+
+/// What `state.json` holds besides the networks and the buffer.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct SacState {
+    algo: String,
+    config: SacConfig,
+    obs_dim: usize,
+    act_dim: usize,
+    num_timesteps: u64,
+    n_updates: u64,
+    log_alpha: f32,
+    alpha_opt: Option<ScalarAdam>,
+    rng: ChaCha8Rng,
+}
+
+/// A Soft Actor-Critic agent.
+#[derive(Debug, Clone)]
+pub struct Sac {
+    config: SacConfig,
+    obs_dim: usize,
+    act_dim: usize,
+    /// `obs -> net_arch -> [mean | log_std]` (SB3's `latent_pi`, then the `mu` and `log_std`
+    /// heads as one linear layer: the same function and the same initial distribution).
+    actor: Mlp,
+    q1: Mlp,
+    q2: Mlp,
+    q1_target: Mlp,
+    q2_target: Mlp,
+    actor_opt: Adam,
+    q1_opt: Adam,
+    q2_opt: Adam,
+    log_alpha: f32,
+    /// `Some` when alpha is learned.
+    alpha_opt: Option<ScalarAdam>,
+    target_entropy: f32,
+    buffer: ReplayBuffer,
+    rng: ChaCha8Rng,
+    num_timesteps: u64,
+    n_updates: u64,
+    ws: Workspace,
+}
+
+impl Sac {
+    /// A fresh agent for observations of `obs_dim` and actions of `act_dim` values; weights
+    /// and sampling derive from `seed`.
+    ///
+    /// # Errors
+    /// [`RlError::Config`] if the configuration is out of range.
+    pub fn new(config: SacConfig, obs_dim: usize, act_dim: usize, seed: u64) -> Result<Self, RlError> {
+        config.validate()?;
+        let (o, a, b) = (obs_dim, act_dim, config.batch_size);
+        let mut init = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Init, 0));
+        let actor = new_mlp(&widths(o, &config.net_arch, 2 * a), Activation::Identity, &mut init)?;
+        let q1 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
+        let q2 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
+        // The targets start as copies of the critics.
+        let (q1_target, q2_target) = (q1.clone(), q2.clone());
+        let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
+        let (log_alpha, alpha_opt, target_entropy) = match config.ent_coef {
+            EntCoef::Auto { target_entropy, init } => (
+                init.ln(),
+                Some(ScalarAdam::new(config.learning_rate as f32)),
+                target_entropy.unwrap_or(-(a as f32)),
+            ),
+            EntCoef::Fixed(alpha) => (alpha.ln(), None, -(a as f32)),
+        };
+        Ok(Self {
+            actor_opt: Adam::new(&actor, adam),
+            q1_opt: Adam::new(&q1, adam),
+            q2_opt: Adam::new(&q2, adam),
+            buffer: ReplayBuffer::new(config.buffer_size, o, a)?,
+            rng: ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Agent, 0)),
+            ws: Workspace::new(b, o, a),
+            config,
+            obs_dim,
+            act_dim,
+            actor,
+            q1,
+            q2,
+            q1_target,
+            q2_target,
+            log_alpha,
+            alpha_opt,
+            target_entropy,
+            num_timesteps: 0,
+            n_updates: 0,
+        })
+    }
+
+    /// The hyperparameters.
+    pub fn config(&self) -> &SacConfig {
+        &self.config
+    }
+
+    /// The current entropy coefficient.
+    pub fn alpha(&self) -> f32 {
+        match self.config.ent_coef {
+            EntCoef::Fixed(alpha) => alpha,
+            EntCoef::Auto { .. } => self.log_alpha.exp(),
+        }
+    }
+
+    /// The replay buffer.
+    pub fn buffer(&self) -> &ReplayBuffer {
+        &self.buffer
+    }
+
+    /// The policy network (`obs -> [mean | log_std]`).
+    pub fn actor(&self) -> &Mlp {
+        &self.actor
+    }
+
+    /// Samples `a~ = tanh(mean + std eps)` and `log pi(a~|s)` for every row of the actor output
+    /// in `ws.actor_out`: actions into `ws.pi_act` (with `eps`, `std`, `in_clamp` kept for the
+    /// backward pass), log-probabilities into `ws.next_logp` if `next`, else `ws.logp`.
+    fn sample_policy(ws: &mut Workspace, rng: &mut ChaCha8Rng, b: usize, a: usize, next: bool) {
+        for i in 0..b {
+            let mut logp = 0.0f32;
+            for j in 0..a {
+                let k = i * a + j;
+                let mean = ws.actor_out[i * 2 * a + j];
+                let raw = ws.actor_out[i * 2 * a + a + j];
+                let log_std = raw.clamp(LOG_STD_MIN, LOG_STD_MAX);
+                let std = log_std.exp();
+                let eps: f32 = rng.sample(StandardNormal);
+                let act = (mean + std * eps).tanh();
+                // Gaussian log-density of u = mean + std eps, then the change of variables
+                // a = tanh(u): log pi(a) = log N(u) - log(1 - tanh(u)^2 + 1e-6) per dimension.
+                logp += -0.5 * eps * eps - log_std - LN_SQRT_2PI - (1.0 - act * act + TANH_EPS).ln();
+                ws.eps[k] = eps;
+                ws.std[k] = std;
+                ws.pi_act[k] = act;
+                ws.in_clamp[k] = (LOG_STD_MIN..=LOG_STD_MAX).contains(&raw);
+            }
+            if next {
+                ws.next_logp[i] = logp;
+            } else {
+                ws.logp[i] = logp;
+            }
+        }
+    }
+
+    /// One gradient step on a fresh batch.
+    fn gradient_step(&mut self) -> Result<UpdateStats, RlError> {
+        let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
+        let gamma = self.config.gamma as f32;
+        let ws = &mut self.ws;
+        self.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
+        // The coefficient of this step is the value before this step's alpha update (SB3).
+        let alpha = match self.config.ent_coef {
+            EntCoef::Fixed(alpha) => alpha,
+            EntCoef::Auto { .. } => self.log_alpha.exp(),
+        };
+
+        // Bellman target from the next states, with actions from the current policy (no gradient).
+        copy_out(self.actor.forward(rows(&ws.batch.next_obs, b, o)), &mut ws.actor_out);
+        Self::sample_policy(ws, &mut self.rng, b, a, true);
+        concat_rows(&mut ws.next_in, &ws.batch.next_obs, &ws.pi_act, b, o, a);
+        copy_out(self.q1_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
+        copy_out(self.q2_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q2);
+        for i in 0..b {
+            let next_q = ws.q1[i].min(ws.q2[i]) - alpha * ws.next_logp[i];
+            // Bootstrap only if the episode did not terminate; a truncated transition (time
+            // limit) bootstraps as usual: its `terminated` is 0.
+            ws.target[i] = ws.batch.rewards[i] + (1.0 - ws.batch.terminated[i]) * gamma * next_q;
+        }
+
+        // Fresh actions for the current states; the actor's forward pass stays for its backward.
+        copy_out(self.actor.forward(rows(&ws.batch.obs, b, o)), &mut ws.actor_out);
+        Self::sample_policy(ws, &mut self.rng, b, a, false);
+        let mean_logp = ws.logp.iter().sum::<f32>() / b as f32;
+
+        // Entropy coefficient: d/d(log_alpha) of -log_alpha (logp + target) averaged.
+        let mut alpha_loss = None;
+        if let Some(opt) = &mut self.alpha_opt {
+            let g = -(mean_logp + self.target_entropy);
+            alpha_loss = Some(self.log_alpha * g);
+            opt.step(&mut self.log_alpha, g);
+        }
+
+        // Critics: 0.5 * sum_i mse(Q_i(s, a), y); d/dQ_i = (Q_i - y) / b.
+        concat_rows(&mut ws.critic_in, &ws.batch.obs, &ws.batch.actions, b, o, a);
+        let mut qf_loss = 0.0f32;
+        let mut qf1_mean = 0.0f32;
+        for (k, (q, opt)) in
+            [(&mut self.q1, &mut self.q1_opt), (&mut self.q2, &mut self.q2_opt)].into_iter().enumerate()
+        {
+            q.zero_grad();
+            copy_out(q.forward(rows(&ws.critic_in, b, o + a)), &mut ws.q1);
+            for i in 0..b {
+                let diff = ws.q1[i] - ws.target[i];
+                qf_loss += 0.5 * diff * diff / b as f32;
+                ws.grad1[i] = diff / b as f32;
+                if k == 0 {
+                    qf1_mean += ws.q1[i] / b as f32;
+                }
+            }
+            q.backward_params(rows(&ws.grad1, b, 1));
+            opt.step(q);
+        }
+
+        // Actor: mean(alpha logp - min(Q1, Q2)(s, a~)) through the updated critics.
+        concat_rows(&mut ws.pi_in, &ws.batch.obs, &ws.pi_act, b, o, a);
+        copy_out(self.q1.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q1);
+        copy_out(self.q2.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q2);
+        let mut actor_loss = 0.0f32;
+        for i in 0..b {
+            // The min's gradient goes to the smaller critic (the first on ties, as torch.min).
+            let first = ws.q1[i] <= ws.q2[i];
+            let min_q = if first { ws.q1[i] } else { ws.q2[i] };
+            actor_loss += (alpha * ws.logp[i] - min_q) / b as f32;
+            ws.grad1[i] = if first { -1.0 / b as f32 } else { 0.0 };
+            ws.grad2[i] = if first { 0.0 } else { -1.0 / b as f32 };
+        }
+        copy_out(self.q1.backward_input(rows(&ws.grad1, b, 1)), &mut ws.dinput);
+        for i in 0..b {
+            for j in 0..a {
+                ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
+            }
+        }
+        copy_out(self.q2.backward_input(rows(&ws.grad2, b, 1)), &mut ws.dinput);
+        for i in 0..b {
+            for j in 0..a {
+                ws.dact[i * a + j] += ws.dinput[i * (o + a) + o + j];
+            }
+        }
+        // Back through a~ = tanh(u), u = mean + std eps, and log pi:
+        //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
+        //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
+        //   once u is reparameterised), zero where the clamp cut log_std.
+        let scale = alpha / b as f32;
+        for i in 0..b {
+            for j in 0..a {
+                let k = i * a + j;
+                let t = ws.pi_act[k];
+                let one_minus = 1.0 - t * t;
+                let du = ws.dact[k] * one_minus + scale * 2.0 * t * one_minus / (one_minus + TANH_EPS);
+                ws.grad_actor[i * 2 * a + j] = du;
+                ws.grad_actor[i * 2 * a + a + j] =
+                    if ws.in_clamp[k] { du * ws.std[k] * ws.eps[k] - scale } else { 0.0 };
+            }
+        }
+        self.actor.zero_grad();
+        self.actor.backward_params(rows(&ws.grad_actor, b, 2 * a));
+        self.actor_opt.step(&mut self.actor);
+
+        self.n_updates += 1;
+        if self.n_updates.is_multiple_of(self.config.target_update_interval) {
+            let tau = self.config.tau as f32;
+            self.q1_target.polyak_update(&self.q1, tau);
+            self.q2_target.polyak_update(&self.q2, tau);
+        }
+        if !(qf_loss.is_finite() && actor_loss.is_finite()) {
+            return Err(RlError::Diverged { what: "SAC loss", update: self.n_updates });
+        }
+        Ok(UpdateStats {
+            n_updates: self.n_updates,
+            qf_loss,
+            qf1_mean,
+            actor_loss: Some(actor_loss),
+            alpha: Some(alpha),
+            alpha_loss,
+        })
+    }
+}
+
+impl Agent for Sac {
+    fn algo(&self) -> &'static str {
+        "sac"
+    }
+
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    fn act_dim(&self) -> usize {
+        self.act_dim
+    }
+
+    fn num_timesteps(&self) -> u64 {
+        self.num_timesteps
+    }
+
+    fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
+        let a = self.act_dim;
+        check_action_len(action, a)?;
+        obs_to_f32(obs, &mut self.ws.obs1)?;
+        if !deterministic && self.num_timesteps < self.config.learning_starts {
+            // Warm-up: uniform over the action space (SB3 samples the space itself).
+            for x in action.iter_mut() {
+                *x = self.rng.random_range(-1.0..=1.0);
+            }
+            return Ok(());
+        }
+        let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
+        for (j, x) in action.iter_mut().enumerate() {
+            let mean = *out.get(0, j);
+            *x = if deterministic {
+                mean.tanh()
+            } else {
+                let std = out.get(0, a + j).clamp(LOG_STD_MIN, LOG_STD_MAX).exp();
+                let eps: f32 = self.rng.sample(StandardNormal);
+                (mean + std * eps).tanh()
+            };
+        }
+        Ok(())
+    }
+
+    fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
+        self.buffer.push(transition)?;
+        self.num_timesteps += 1;
+        Ok(())
+    }
+
+    fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
+        // SB3: train after every `train_freq` steps once more than `learning_starts` were taken.
+        let n = self.num_timesteps;
+        if n <= self.config.learning_starts || !n.is_multiple_of(self.config.train_freq) {
+            return Ok(None);
+        }
+        let mut last = None;
+        for _ in 0..self.config.gradient_steps {
+            last = Some(self.gradient_step()?);
+        }
+        Ok(last)
+    }
+
+    fn save(&self, dir: &Path) -> Result<(), RlError> {
+        save_net(dir, "actor", &self.actor, Some(&self.actor_opt))?;
+        save_net(dir, "q1", &self.q1, Some(&self.q1_opt))?;
+        save_net(dir, "q2", &self.q2, Some(&self.q2_opt))?;
+        save_net(dir, "q1_target", &self.q1_target, None)?;
+        save_net(dir, "q2_target", &self.q2_target, None)?;
+        self.buffer.save(&dir.join("replay.bin"))?;
+        let state = SacState {
+            algo: "sac".into(),
+            config: self.config.clone(),
+            obs_dim: self.obs_dim,
+            act_dim: self.act_dim,
+            num_timesteps: self.num_timesteps,
+            n_updates: self.n_updates,
+            log_alpha: self.log_alpha,
+            alpha_opt: self.alpha_opt.clone(),
+            rng: self.rng.clone(),
+        };
+        write_json(&dir.join("state.json"), &state)
+    }
+
+    fn load(&mut self, dir: &Path) -> Result<(), RlError> {
+        let path = dir.join("state.json");
+        let state: SacState = read_json(&path)?;
+        if state.algo != "sac"
+            || state.config != self.config
+            || (state.obs_dim, state.act_dim) != (self.obs_dim, self.act_dim)
+        {
+            return Err(RlError::checkpoint(
+                &path,
+                format!(
+                    "saved by {} with dims {}/{} and another configuration than this agent's (sac, {}/{})",
+                    state.algo, state.obs_dim, state.act_dim, self.obs_dim, self.act_dim
+                ),
+            ));
+        }
+        load_net(dir, "actor", &mut self.actor, Some(&mut self.actor_opt))?;
+        load_net(dir, "q1", &mut self.q1, Some(&mut self.q1_opt))?;
+        load_net(dir, "q2", &mut self.q2, Some(&mut self.q2_opt))?;
+        load_net(dir, "q1_target", &mut self.q1_target, None)?;
+        load_net(dir, "q2_target", &mut self.q2_target, None)?;
+        self.buffer.load(&dir.join("replay.bin"))?;
+        self.num_timesteps = state.num_timesteps;
+        self.n_updates = state.n_updates;
+        self.log_alpha = state.log_alpha;
+        self.alpha_opt = state.alpha_opt;
+        self.rng = state.rng;
+        Ok(())
+    }
+
+    fn save_actor(&self, path: &Path) -> Result<(), RlError> {
+        Ok(self.actor.save_safetensors(path)?)
+    }
+}

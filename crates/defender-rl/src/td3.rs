@@ -1,0 +1,338 @@
+//! Twin Delayed DDPG (Fujimoto et al. 2018), as Stable-Baselines3's `TD3` computes it: a
+//! deterministic tanh policy, twin critics, target policy smoothing, delayed actor updates.
+//!
+//! One gradient step (SB3 `TD3.train`):
+//!
+//! ```text
+//! n_updates += 1
+//! a' = clip(pi_t(s') + clip(N(0, target_policy_noise), -c, c), -1, 1)
+//! y  = r + gamma (1 - terminated) min_i Qt_i(s', a')
+//! critic step on sum_i mean (Q_i(s, a) - y)^2
+//! every policy_delay updates:
+//!     actor step on -mean Q_1(s, pi(s));  Qt_i <- tau Q_i + (1 - tau) Qt_i;  pi_t <- tau pi + (1 - tau) pi_t
+//! ```
+//!
+//! Exploration adds `N(0, exploration_noise)` to the policy's action and clips to [-1, 1].
+
+use std::path::Path;
+
+use defender_nn::{Activation, Adam, AdamConfig, Mlp};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use crate::agent::{Agent, UpdateStats};
+use crate::checkpoint::{read_json, write_json};
+use crate::config::Td3Config;
+use crate::error::RlError;
+use crate::nets::{
+    check_action_len, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows, save_net, widths,
+};
+use crate::replay::{Batch, ReplayBuffer, Transition};
+use crate::seed::{SeedPurpose, derive_seed};
+
+/// Buffers of one gradient step, allocated once.
+#[derive(Debug, Clone)]
+struct Workspace {
+    batch: Batch,
+    /// Target actions `a'`, then policy actions `pi(s)`, `b x a`.
+    act: Vec<f32>,
+    /// `[s' | a']` rows, then `[s | pi(s)]` rows.
+    next_in: Vec<f32>,
+    /// `[s | a]` rows (replayed actions).
+    critic_in: Vec<f32>,
+    target: Vec<f32>,
+    q1: Vec<f32>,
+    q2: Vec<f32>,
+    grad: Vec<f32>,
+    dinput: Vec<f32>,
+    dact: Vec<f32>,
+    obs1: Vec<f32>,
+}
+
+/// What `state.json` holds besides the networks and the buffer.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Td3State {
+    algo: String,
+    config: Td3Config,
+    obs_dim: usize,
+    act_dim: usize,
+    num_timesteps: u64,
+    n_updates: u64,
+    rng: ChaCha8Rng,
+}
+
+/// A TD3 agent.
+#[derive(Debug, Clone)]
+pub struct Td3 {
+    config: Td3Config,
+    obs_dim: usize,
+    act_dim: usize,
+    /// `obs -> net_arch -> act` with a tanh output.
+    actor: Mlp,
+    actor_target: Mlp,
+    q1: Mlp,
+    q2: Mlp,
+    q1_target: Mlp,
+    q2_target: Mlp,
+    actor_opt: Adam,
+    q1_opt: Adam,
+    q2_opt: Adam,
+    buffer: ReplayBuffer,
+    rng: ChaCha8Rng,
+    num_timesteps: u64,
+    n_updates: u64,
+    ws: Workspace,
+}
+
+impl Td3 {
+    /// A fresh agent for observations of `obs_dim` and actions of `act_dim` values; weights
+    /// and sampling derive from `seed`.
+    ///
+    /// # Errors
+    /// [`RlError::Config`] if the configuration is out of range.
+    pub fn new(config: Td3Config, obs_dim: usize, act_dim: usize, seed: u64) -> Result<Self, RlError> {
+        config.validate()?;
+        let (o, a, b) = (obs_dim, act_dim, config.batch_size);
+        let mut init = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Init, 0));
+        let actor = new_mlp(&widths(o, &config.net_arch, a), Activation::Tanh, &mut init)?;
+        let q1 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
+        let q2 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
+        let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
+        Ok(Self {
+            actor_target: actor.clone(),
+            q1_target: q1.clone(),
+            q2_target: q2.clone(),
+            actor_opt: Adam::new(&actor, adam),
+            q1_opt: Adam::new(&q1, adam),
+            q2_opt: Adam::new(&q2, adam),
+            buffer: ReplayBuffer::new(config.buffer_size, o, a)?,
+            rng: ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Agent, 0)),
+            ws: Workspace {
+                batch: Batch::new(b, o, a),
+                act: vec![0.0; b * a],
+                next_in: vec![0.0; b * (o + a)],
+                critic_in: vec![0.0; b * (o + a)],
+                target: vec![0.0; b],
+                q1: vec![0.0; b],
+                q2: vec![0.0; b],
+                grad: vec![0.0; b],
+                dinput: vec![0.0; b * (o + a)],
+                dact: vec![0.0; b * a],
+                obs1: vec![0.0; o],
+            },
+            config,
+            obs_dim,
+            act_dim,
+            actor,
+            q1,
+            q2,
+            num_timesteps: 0,
+            n_updates: 0,
+        })
+    }
+
+    /// The hyperparameters.
+    pub fn config(&self) -> &Td3Config {
+        &self.config
+    }
+
+    /// The replay buffer.
+    pub fn buffer(&self) -> &ReplayBuffer {
+        &self.buffer
+    }
+
+    /// The policy network (`obs -> action in [-1, 1]`).
+    pub fn actor(&self) -> &Mlp {
+        &self.actor
+    }
+
+    /// One gradient step on a fresh batch.
+    fn gradient_step(&mut self) -> Result<UpdateStats, RlError> {
+        let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
+        let gamma = self.config.gamma as f32;
+        let (sigma, clip) = (self.config.target_policy_noise as f32, self.config.target_noise_clip as f32);
+        let ws = &mut self.ws;
+        self.n_updates += 1;
+        self.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
+
+        // Target policy smoothing: clipped Gaussian noise on the target actor's action.
+        copy_out(self.actor_target.forward(rows(&ws.batch.next_obs, b, o)), &mut ws.act);
+        for x in &mut ws.act {
+            let noise = (self.rng.sample::<f32, _>(StandardNormal) * sigma).clamp(-clip, clip);
+            *x = (*x + noise).clamp(-1.0, 1.0);
+        }
+        concat_rows(&mut ws.next_in, &ws.batch.next_obs, &ws.act, b, o, a);
+        copy_out(self.q1_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
+        copy_out(self.q2_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q2);
+        for i in 0..b {
+            // Bootstrap only if the episode did not terminate (truncation bootstraps).
+            ws.target[i] =
+                ws.batch.rewards[i] + (1.0 - ws.batch.terminated[i]) * gamma * ws.q1[i].min(ws.q2[i]);
+        }
+
+        // Critics: sum_i mse(Q_i(s, a), y) (no 0.5 here, unlike SAC); d/dQ_i = 2 (Q_i - y) / b.
+        concat_rows(&mut ws.critic_in, &ws.batch.obs, &ws.batch.actions, b, o, a);
+        let (mut qf_loss, mut qf1_mean) = (0.0f32, 0.0f32);
+        for (k, (q, opt)) in
+            [(&mut self.q1, &mut self.q1_opt), (&mut self.q2, &mut self.q2_opt)].into_iter().enumerate()
+        {
+            q.zero_grad();
+            copy_out(q.forward(rows(&ws.critic_in, b, o + a)), &mut ws.q1);
+            for i in 0..b {
+                let diff = ws.q1[i] - ws.target[i];
+                qf_loss += diff * diff / b as f32;
+                ws.grad[i] = 2.0 * diff / b as f32;
+                if k == 0 {
+                    qf1_mean += ws.q1[i] / b as f32;
+                }
+            }
+            q.backward_params(rows(&ws.grad, b, 1));
+            opt.step(q);
+        }
+
+        // Delayed policy update: maximise Q_1(s, pi(s)), then move all targets.
+        let mut actor_loss = None;
+        if self.n_updates.is_multiple_of(self.config.policy_delay) {
+            copy_out(self.actor.forward(rows(&ws.batch.obs, b, o)), &mut ws.act);
+            concat_rows(&mut ws.next_in, &ws.batch.obs, &ws.act, b, o, a);
+            copy_out(self.q1.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
+            actor_loss = Some(-ws.q1[..b].iter().sum::<f32>() / b as f32);
+            ws.grad.fill(-1.0 / b as f32);
+            copy_out(self.q1.backward_input(rows(&ws.grad, b, 1)), &mut ws.dinput);
+            for i in 0..b {
+                for j in 0..a {
+                    ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
+                }
+            }
+            // The actor's own tanh is inside the network: backward_params differentiates it.
+            self.actor.zero_grad();
+            self.actor.backward_params(rows(&ws.dact, b, a));
+            self.actor_opt.step(&mut self.actor);
+            let tau = self.config.tau as f32;
+            self.q1_target.polyak_update(&self.q1, tau);
+            self.q2_target.polyak_update(&self.q2, tau);
+            self.actor_target.polyak_update(&self.actor, tau);
+        }
+        if !qf_loss.is_finite() || actor_loss.is_some_and(|l| !l.is_finite()) {
+            return Err(RlError::Diverged { what: "TD3 loss", update: self.n_updates });
+        }
+        Ok(UpdateStats {
+            n_updates: self.n_updates,
+            qf_loss,
+            qf1_mean,
+            actor_loss,
+            alpha: None,
+            alpha_loss: None,
+        })
+    }
+}
+
+impl Agent for Td3 {
+    fn algo(&self) -> &'static str {
+        "td3"
+    }
+
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    fn act_dim(&self) -> usize {
+        self.act_dim
+    }
+
+    fn num_timesteps(&self) -> u64 {
+        self.num_timesteps
+    }
+
+    fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
+        check_action_len(action, self.act_dim)?;
+        obs_to_f32(obs, &mut self.ws.obs1)?;
+        if !deterministic && self.num_timesteps < self.config.learning_starts {
+            for x in action.iter_mut() {
+                *x = self.rng.random_range(-1.0..=1.0);
+            }
+            return Ok(());
+        }
+        let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
+        let sigma = self.config.exploration_noise as f32;
+        for (j, x) in action.iter_mut().enumerate() {
+            *x = *out.get(0, j);
+            if !deterministic {
+                *x = (*x + sigma * self.rng.sample::<f32, _>(StandardNormal)).clamp(-1.0, 1.0);
+            }
+        }
+        Ok(())
+    }
+
+    fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
+        self.buffer.push(transition)?;
+        self.num_timesteps += 1;
+        Ok(())
+    }
+
+    fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
+        let n = self.num_timesteps;
+        if n <= self.config.learning_starts || !n.is_multiple_of(self.config.train_freq) {
+            return Ok(None);
+        }
+        let mut last = None;
+        for _ in 0..self.config.gradient_steps {
+            last = Some(self.gradient_step()?);
+        }
+        Ok(last)
+    }
+
+    fn save(&self, dir: &Path) -> Result<(), RlError> {
+        save_net(dir, "actor", &self.actor, Some(&self.actor_opt))?;
+        save_net(dir, "actor_target", &self.actor_target, None)?;
+        save_net(dir, "q1", &self.q1, Some(&self.q1_opt))?;
+        save_net(dir, "q2", &self.q2, Some(&self.q2_opt))?;
+        save_net(dir, "q1_target", &self.q1_target, None)?;
+        save_net(dir, "q2_target", &self.q2_target, None)?;
+        self.buffer.save(&dir.join("replay.bin"))?;
+        let state = Td3State {
+            algo: "td3".into(),
+            config: self.config.clone(),
+            obs_dim: self.obs_dim,
+            act_dim: self.act_dim,
+            num_timesteps: self.num_timesteps,
+            n_updates: self.n_updates,
+            rng: self.rng.clone(),
+        };
+        write_json(&dir.join("state.json"), &state)
+    }
+
+    fn load(&mut self, dir: &Path) -> Result<(), RlError> {
+        let path = dir.join("state.json");
+        let state: Td3State = read_json(&path)?;
+        if state.algo != "td3"
+            || state.config != self.config
+            || (state.obs_dim, state.act_dim) != (self.obs_dim, self.act_dim)
+        {
+            return Err(RlError::checkpoint(
+                &path,
+                format!(
+                    "saved by {} with dims {}/{} and another configuration than this agent's (td3, {}/{})",
+                    state.algo, state.obs_dim, state.act_dim, self.obs_dim, self.act_dim
+                ),
+            ));
+        }
+        load_net(dir, "actor", &mut self.actor, Some(&mut self.actor_opt))?;
+        load_net(dir, "actor_target", &mut self.actor_target, None)?;
+        load_net(dir, "q1", &mut self.q1, Some(&mut self.q1_opt))?;
+        load_net(dir, "q2", &mut self.q2, Some(&mut self.q2_opt))?;
+        load_net(dir, "q1_target", &mut self.q1_target, None)?;
+        load_net(dir, "q2_target", &mut self.q2_target, None)?;
+        self.buffer.load(&dir.join("replay.bin"))?;
+        self.num_timesteps = state.num_timesteps;
+        self.n_updates = state.n_updates;
+        self.rng = state.rng;
+        Ok(())
+    }
+
+    fn save_actor(&self, path: &Path) -> Result<(), RlError> {
+        Ok(self.actor.save_safetensors(path)?)
+    }
+}
