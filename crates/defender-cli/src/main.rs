@@ -18,12 +18,15 @@ enum Command {
     /// The MuJoCo tasks: list them, replay recorded actions from a given state.
     #[command(subcommand)]
     Env(commands::env::EnvCommand),
+    /// The paper's tables (Markdown, LaTeX, CSV) and learning-curve plots from run directories.
+    Report(commands::report::ReportArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
+        Command::Report(args) => commands::report::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,3 +1,4 @@
 //! One module per subcommand.
 
 pub mod env;
+pub mod report;

@@ -1,0 +1,128 @@
+//! `defender report` end to end: the built binary on run directories written as
+//! docs/run-directory.md says.
+#![allow(clippy::unwrap_used)] // helpers outside #[test] fns
+
+#[path = "../../defender-report/tests/common/mod.rs"]
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use common::{A, RunSpec, paper_fixture};
+
+/// A fresh directory under Cargo's per-target scratch directory.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("report_cli_{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn defender(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8(bytes.to_vec()).unwrap()
+}
+
+#[test]
+fn markdown_on_stdout_from_a_parent_folder() {
+    let root = scratch("markdown");
+    paper_fixture(&root.join("runs"));
+    let out = defender(&["report", root.join("runs").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let md = text(&out.stdout);
+    assert!(md.starts_with("# DEFENDER report\n"), "{md}");
+    let row = md.lines().find(|l| l.contains("MeanDemoW5") && l.starts_with("| SAC")).unwrap();
+    let cells: Vec<&str> = row.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
+    // SAC A: acc 110, 110, 140; crash 25, 0, 25 %; time 150, 150, 100 % (see common/mod.rs).
+    assert_eq!(cells, ["SAC", "MeanDemoW5", "MeanDemoW10", "120 ± 14.1", "16.7 ± 11.8", "133", "3"]);
+    assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
+}
+
+#[test]
+fn latex_and_csv_to_files_and_plots() {
+    let root = scratch("files");
+    let runs = root.join("runs");
+    paper_fixture(&runs);
+    let tex = root.join("out/tables.tex");
+    std::fs::create_dir_all(tex.parent().unwrap()).unwrap();
+    let out = defender(&[
+        "report",
+        runs.to_str().unwrap(),
+        "--format",
+        "latex",
+        "--out",
+        tex.to_str().unwrap(),
+        "--plots",
+        root.join("plots").to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(out.stdout.is_empty());
+    let latex = std::fs::read_to_string(&tex).unwrap();
+    assert!(latex.contains("\\toprule") && latex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 50$\\pm$20.4 & 100"));
+    assert!(!root.join("out/tables.tex.tmp").exists());
+    let stderr = text(&out.stderr);
+    assert!(stderr.contains("wrote 12 plot files to"), "{stderr}");
+    for name in ["Hopper-v5_sac_return.png", "Hopper-v5_td3_crash.svg", "Hopper-v5_td3_eval.png"] {
+        let len = std::fs::metadata(root.join("plots").join(name)).unwrap().len();
+        assert!(len > 1000, "{name}: {len} bytes");
+    }
+
+    let out = defender(&["report", runs.to_str().unwrap(), "--format", "csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = text(&out.stdout);
+    assert_eq!(csv.lines().count(), 7, "{csv}");
+    assert!(csv.lines().next().unwrap().starts_with("env,algo,budget_steps,"));
+    assert!(csv.contains("\nHopper-v5,td3,500,,MinDemoW5/MinDemoW10,MinDemoW5,MinDemoW10,state,50,3,0;1;2,10,0,0,0,100,0,300,0,3,"));
+}
+
+#[test]
+fn incomplete_runs_warn_and_missing_bare_runs_are_noted() {
+    let root = scratch("warn");
+    RunSpec::new("sac", 0, A).write(&root);
+    let running = RunSpec::new("sac", 1, A).write(&root);
+    std::fs::write(running.join("summary.json"), "{\"complete\": false}").unwrap();
+    let out = defender(&["report", root.to_str().unwrap(), "--format", "csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stderr = text(&out.stderr);
+    assert!(stderr.contains(&format!("warning: skipping {}: incomplete", running.display())), "{stderr}");
+    assert!(stderr.contains("note: % Time of Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps): no bare run"));
+}
+
+#[test]
+fn broken_run_directories_fail_with_the_file_named() {
+    let root = scratch("broken");
+    let dir = RunSpec::new("sac", 0, None).write(&root);
+    std::fs::write(dir.join("summary.json"), "{\"complete\": tru").unwrap();
+    let out = defender(&["report", root.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    assert!(stderr.starts_with(&format!("error: {}: ", dir.join("summary.json").display())), "{stderr}");
+    assert!(out.stdout.is_empty());
+
+    let out = defender(&["report", root.join("nowhere").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("nowhere: no such file or directory"));
+
+    // Everything skipped: nothing to report is an error, not an empty table.
+    std::fs::write(dir.join("summary.json"), "{\"complete\": false}").unwrap();
+    let out = defender(&["report", root.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("error: no complete run to report"));
+}
+
+#[test]
+fn help_has_an_example_and_bad_usage_is_rejected() {
+    let out = defender(&["report", "--help"]);
+    assert!(out.status.success());
+    let help = text(&out.stdout);
+    assert!(help.contains("Examples:\n  defender report runs/"), "{help}");
+    assert!(help.contains("--format <FORMAT>") && help.contains("--plots <DIR>") && help.contains("--out <FILE>"));
+    let out = defender(&["report"]);
+    assert_eq!(out.status.code(), Some(2), "a run directory is required");
+    let out = defender(&["report", ".", "--format", "html"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("invalid value 'html'"));
+}
