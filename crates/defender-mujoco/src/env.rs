@@ -286,10 +286,14 @@ impl Env for MujocoEnv {
         self.action_space.check("action", action)?;
         let x_before = self.data.qpos()[0];
         self.data.ctrl_mut().copy_from_slice(action);
-        let warnings_before = self.instability_count();
+        // Zeroed per step, so that a warning is seen even after MuJoCo's own reset of the data
+        // (which may leave the counter where it was) and after a `set_state` without reset.
+        for w in INSTABILITY_WARNINGS {
+            self.data.warning_mut()[w as usize].number = 0;
+        }
         for _ in 0..self.frame_skip {
             self.data.step();
-            if self.instability_count() != warnings_before {
+            if self.instability_count() != 0 {
                 return Ok(self.unstable_step("MuJoCo warned of a bad qpos, qvel, qacc or ctrl"));
             }
         }
