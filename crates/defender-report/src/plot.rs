@@ -87,6 +87,8 @@ struct Band {
 struct Chart {
     title: String,
     y_label: String,
+    /// The y axis starts here at the lowest (0 for percentages).
+    y_floor: Option<f64>,
     markers: bool,
     bands: Vec<Band>,
 }
@@ -179,6 +181,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             let chart = Chart {
                 title: title(env, algo, *budget, kind),
                 y_label: y_label(kind, options),
+                y_floor: (kind == PlotKind::CrashRate).then_some(0.0),
                 markers: kind == PlotKind::Evaluation,
                 bands,
             };
@@ -390,12 +393,21 @@ where
         0.0,
     );
     // Head room above the curves for the legend.
-    let (y0, y1) = range(
+    let (mut y0, y1) = range(
         fold(|b| &b.lo, f64::INFINITY, f64::min),
         fold(|b| &b.hi, f64::NEG_INFINITY, f64::max),
         0.05,
         0.35,
     );
+    if let Some(floor) = chart.y_floor {
+        y0 = y0.max(floor);
+    }
+    // As many decimals as the axis needs: 4000, 12.5, 0.25.
+    let y_decimals = match y1 - y0 {
+        span if span >= 20.0 => 0,
+        span if span >= 2.0 => 1,
+        _ => 2,
+    };
     let mut plot = ChartBuilder::on(&root)
         .caption(&chart.title, (FONT_NAME, 22))
         .margin(15)
@@ -407,6 +419,7 @@ where
         .x_desc("environment steps")
         .y_desc(chart.y_label.as_str())
         .x_label_formatter(&|x| steps_label(*x))
+        .y_label_formatter(&|y| format!("{y:.y_decimals$}"))
         .label_style((FONT_NAME, 14))
         .axis_desc_style((FONT_NAME, 16))
         .light_line_style(RGBColor(235, 235, 235))
