@@ -272,3 +272,31 @@ fn budgets_in_episodes_and_modes_are_kept_apart() {
     let md = render(&table, Format::Markdown);
     assert!(md.contains("### Hopper-v5, 4 episodes") && md.contains("### Hopper-v5, 400 steps"), "{md}");
 }
+
+#[test]
+fn runs_with_different_numbers_of_demonstrations_are_separate_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    RunSpec::new("sac", 0, None).write(dir.path());
+    RunSpec::new("sac", 0, A).acc(50.0).write(dir.path());
+    let ten = dir.path().join("ten");
+    let run = RunSpec::new("sac", 0, A).acc(30.0).write(&ten);
+    let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    std::fs::write(run.join("config.toml"), config.replace("num_demos = 50", "num_demos = 10")).unwrap();
+    let table = table_of(dir.path());
+    assert!(table.varies_num_demos());
+    let demos: Vec<Option<u64>> =
+        table.rows.iter().map(|r| r.filter.as_ref().and_then(|f| f.num_demos)).collect();
+    assert_eq!(demos, vec![None, Some(10), Some(50)]);
+    let md = render(&table, Format::Markdown);
+    let header = md.lines().find(|l| l.starts_with("| Algorithm")).unwrap();
+    assert!(header.contains("| Demos |"), "{md}");
+    let rows: Vec<Vec<&str>> = md
+        .lines()
+        .filter(|l| l.starts_with("| SAC"))
+        .map(|l| l.split('|').map(str::trim).filter(|c| !c.is_empty()).collect())
+        .collect();
+    assert_eq!(rows[0][..5], ["SAC", "-", "-", "-", "100 ± 0.0"]);
+    assert_eq!(rows[1][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "10", "30 ± 0.0"]);
+    assert_eq!(rows[2][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "50", "50 ± 0.0"]);
+    assert!(render(&table, Format::Latex).contains("Safe & Unsafe & Demos & Acc Reward"));
+}
