@@ -2,6 +2,10 @@
 //! Polyak) for a Hopper-sized critic, one and two threads. `cargo run --release -p
 //! defender-nn --example nn_profile`. Best-of timings resist a shared machine's noise.
 
+#[path = "../benches/common/sac_shape.rs"]
+#[allow(dead_code)]
+mod sac_shape;
+
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -20,6 +24,15 @@ fn best_of(reps: usize, mut f: impl FnMut()) -> f64 {
 }
 
 fn main() {
+    for par in [Parallelism::Sequential, Parallelism::threads(2)] {
+        let mut sac = sac_shape::SacShape::new(par);
+        let us = best_of(100, || sac.update());
+        println!(
+            "SAC-shaped update (Hopper, batch 256) {} thr: {us:.0} us ({:.0} GFLOP/s)",
+            par.num_threads(),
+            sac_shape::SacShape::flops() as f64 / us / 1e3
+        );
+    }
     let b = 256;
     for widths in [vec![14, 256, 256, 1], vec![256, 256, 256, 256]] {
         let macs: usize = widths.windows(2).map(|w| w[0] * w[1] * b).sum();

@@ -7,6 +7,7 @@ mod io;
 mod loss;
 mod mlp;
 mod parallelism;
+mod simd;
 
 pub use activation::Activation;
 pub use adam::{Adam, AdamConfig};

@@ -392,9 +392,14 @@ impl Mlp {
             }
             let act = if l == last { self.output } else { self.hidden };
             let bias = &self.params[s.bias..s.bias + s.fan_out];
-            for col in z_slice.chunks_exact_mut(s.fan_out) {
-                act.bias_apply(col, bias);
-            }
+            crate::simd::vectorized(
+                #[inline(always)]
+                || {
+                    for col in z_slice.chunks_exact_mut(s.fan_out) {
+                        act.bias_apply(col, bias);
+                    }
+                },
+            );
         }
         let out = self.out_dim();
         MatRef::from_column_major_slice(&self.ws.acts[last + 1][..out * b], out, b).transpose()
@@ -484,9 +489,14 @@ impl Mlp {
                 let par = self.parallelism.for_gemm(s.fan_in, s.fan_out, b);
                 matmul(dwt, Accum::Add, x, dz.transpose(), 1.0, par);
                 let db = &mut self.grads[s.bias..s.bias + s.fan_out];
-                for col in dz_slice.chunks_exact(s.fan_out) {
-                    db.iter_mut().zip(col).for_each(|(d, g)| *d += g);
-                }
+                crate::simd::vectorized(
+                    #[inline(always)]
+                    || {
+                        for col in dz_slice.chunks_exact(s.fan_out) {
+                            db.iter_mut().zip(col).for_each(|(d, g)| *d += g);
+                        }
+                    },
+                );
             }
             if l == 0 && wanted == Wanted::ParamsOnly {
                 break;
@@ -499,7 +509,11 @@ impl Mlp {
                 matmul(dx, Accum::Replace, wt, dz, 1.0, par);
             }
             if l > 0 {
-                self.hidden.backprop_in_place(dx_slice, &ws.acts[l][..s.fan_in * b]);
+                let y = &ws.acts[l][..s.fan_in * b];
+                crate::simd::vectorized(
+                    #[inline(always)]
+                    || self.hidden.backprop_in_place(dx_slice, y),
+                );
             }
             std::mem::swap(&mut ws.grad, &mut ws.grad_next);
             ws.grad_rows = s.fan_in;
