@@ -1,16 +1,25 @@
 #![doc = include_str!("../README.md")]
 
+mod ablation;
 mod atomic;
+mod demonstrations;
+pub mod direct;
 mod episode_set;
 mod error;
+mod filter;
 mod method;
 mod npz;
+mod score;
 mod strategy;
 mod window;
 
+pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
 pub use atomic::write_atomic;
+pub use demonstrations::{CostOptions, Demonstrations, Scaling};
 pub use episode_set::{Episode, EpisodeSet, Meta};
 pub use error::{DefenderError, Result};
+pub use filter::{Decision, Filter};
 pub use method::{Aggregation, Method};
+pub use score::{AblationRow, CSV_HEADER, StrategyTally, rank, rank_tasks, read_csv, write_csv};
 pub use strategy::{Mode, Strategy};
 pub use window::{Span, Window};

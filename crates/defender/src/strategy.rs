@@ -88,7 +88,7 @@ impl FromStr for Strategy {
 }
 
 /// What a trajectory element is (SPEC section 1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub enum Mode {
     /// `e_i = s_i` (the default); a demonstration of N transitions gives N + 1 elements.
     #[default]

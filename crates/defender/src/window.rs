@@ -115,6 +115,21 @@ impl Window {
         (x, y)
     }
 
+    /// The streaming view of `defender-dtw` that computes this window.
+    pub fn view(self) -> defender_dtw::View {
+        use defender_dtw::{QueryWindow, RefWindow, View};
+        let query = match self.trajectory_span() {
+            Span::Last(w) => QueryWindow::Last(w),
+            Span::All | Span::MatchQuery => QueryWindow::All,
+        };
+        let reference = match self.demonstration_span() {
+            Span::All => RefWindow::All,
+            Span::Last(w) => RefWindow::Last(w),
+            Span::MatchQuery => RefWindow::MatchQuery,
+        };
+        View::new(query, reference)
+    }
+
     fn valid_forms() -> String {
         Window::ALL.iter().map(|w| w.name()).collect::<Vec<_>>().join(", ")
     }

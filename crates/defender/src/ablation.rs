@@ -1,0 +1,236 @@
+//! The offline ablation (SPEC section 7): replay recorded episodes under many strategies at once
+//! and score each strategy by how much of the episodes it keeps and how many crashes it prevents.
+//!
+//! Work is shared three ways (DESIGN "The offline ablation shares work"): per recorded episode and
+//! step, each group's stream computes the windowed costs of the windows any strategy needs once
+//! (at most 8 per demonstration); the 3 aggregations of each window give the per-group values of
+//! the 24 methods once; every strategy then only compares two of those numbers. Episodes run in
+//! parallel (rayon), and an episode stops being replayed once every strategy has filtered it.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use defender_dtw::Stream;
+
+use crate::demonstrations::Demonstrations;
+use crate::episode_set::{Episode, EpisodeSet};
+use crate::error::{DefenderError, Result};
+use crate::filter::Decision;
+use crate::method::{Aggregation, Method};
+use crate::score::{AblationRow, StrategyTally};
+use crate::strategy::{Mode, Strategy};
+use crate::window::Window;
+
+/// The ablation of a set of strategies over one demonstration set.
+#[derive(Debug, Clone)]
+pub struct Ablation {
+    demos: Demonstrations,
+    strategies: Vec<Strategy>,
+    /// Windows each group's stream computes, in view order.
+    safe_windows: Vec<Window>,
+    unsafe_windows: Vec<Window>,
+    /// Per strategy, the index of its safe / unsafe value in the per-step value tables.
+    pairs: Vec<(usize, usize)>,
+}
+
+/// Per recorded episode, the first filtered step of every strategy (in the ablation's order).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EpisodeReplay {
+    /// Number of transitions `T_e` (decisions replayed).
+    pub len: usize,
+    /// The recorded episode crashed.
+    pub crashed: bool,
+    /// Per strategy, `k`: the first filtered step, if any.
+    pub first_filtered: Vec<Option<usize>>,
+}
+
+/// Progress of a running ablation, reported after each finished episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// Episodes finished so far.
+    pub done: usize,
+    /// Episodes in total.
+    pub total: usize,
+    /// Transitions of the episode that just finished.
+    pub episode_len: usize,
+}
+
+impl Ablation {
+    /// An ablation of `strategies` (e.g. `Strategy::all()`) with prepared demonstrations; the
+    /// mode is the demonstrations' mode. Duplicates are kept once, in first-seen order.
+    ///
+    /// # Errors
+    /// An empty list of strategies; a DTW error for invalid views (cannot happen).
+    pub fn new(demos: &Demonstrations, strategies: &[Strategy]) -> Result<Self> {
+        let mut list: Vec<Strategy> = Vec::with_capacity(strategies.len());
+        for s in strategies {
+            if !list.contains(s) {
+                list.push(*s);
+            }
+        }
+        if list.is_empty() {
+            return Err(DefenderError::Config("the ablation needs at least one strategy".into()));
+        }
+        let windows_of = |pick: fn(&Strategy) -> Method| -> Vec<Window> {
+            Window::ALL.into_iter().filter(|w| list.iter().any(|s| pick(s).window == *w)).collect()
+        };
+        let safe_windows = windows_of(|s| s.safe);
+        let unsafe_windows = windows_of(|s| s.unsafe_);
+        let slot = |windows: &[Window], m: Method| {
+            let w = windows.iter().position(|&w| w == m.window).unwrap_or(0);
+            w * Aggregation::ALL.len() + m.aggregation.index()
+        };
+        let pairs = list.iter().map(|s| (slot(&safe_windows, s.safe), slot(&unsafe_windows, s.unsafe_))).collect();
+        Ok(Self { demos: demos.clone(), strategies: list, safe_windows, unsafe_windows, pairs })
+    }
+
+    /// The strategies, in the order results use.
+    pub fn strategies(&self) -> &[Strategy] {
+        &self.strategies
+    }
+
+    /// The trajectory mode.
+    pub fn mode(&self) -> Mode {
+        self.demos.mode()
+    }
+
+    fn streams(&self) -> Result<(Stream, Stream)> {
+        let views = |ws: &[Window]| ws.iter().map(|w| w.view()).collect::<Vec<_>>();
+        Ok((
+            self.demos.safe().stream(&views(&self.safe_windows))?,
+            self.demos.unsafe_().stream(&views(&self.unsafe_windows))?,
+        ))
+    }
+
+    /// Replays one recorded episode under every strategy (SPEC section 7).
+    ///
+    /// # Errors
+    /// The episode's dimensions differ from the demonstrations'.
+    pub fn replay(&self, episode: Episode<'_>) -> Result<EpisodeReplay> {
+        let (mut safe, mut unsafe_) = self.streams()?;
+        self.replay_with(episode, &mut safe, &mut unsafe_, &mut Vec::new())
+    }
+
+    fn replay_with(
+        &self,
+        episode: Episode<'_>,
+        safe: &mut Stream,
+        unsafe_: &mut Stream,
+        element: &mut Vec<f32>,
+    ) -> Result<EpisodeReplay> {
+        if episode.obs_dim != self.demos.obs_dim() || episode.act_dim != self.demos.act_dim() {
+            return Err(DefenderError::Mismatch {
+                what: format!("episode {} dimensions (obs_dim, act_dim) vs the demonstrations'", episode.index),
+                expected: format!("({}, {})", self.demos.obs_dim(), self.demos.act_dim()),
+                got: format!("({}, {})", episode.obs_dim, episode.act_dim),
+            });
+        }
+        safe.reset();
+        unsafe_.reset();
+        let mut first: Vec<Option<usize>> = vec![None; self.strategies.len()];
+        let mut open = first.len();
+        let mut safe_values = vec![f64::NAN; self.safe_windows.len() * 3];
+        let mut unsafe_values = vec![f64::NAN; self.unsafe_windows.len() * 3];
+        // Decisions are made at t = 0 .. T_e - 1 from s_t (and a_t): never from the final observation.
+        for t in 0..episode.len() {
+            self.demos.element_into(episode.observation(t).iter().copied(), episode.action(t), element);
+            safe.push(element)?;
+            unsafe_.push(element)?;
+            for (stream, values) in [(&*safe, &mut safe_values), (&*unsafe_, &mut unsafe_values)] {
+                for (v, chunk) in values.chunks_exact_mut(3).enumerate() {
+                    chunk.copy_from_slice(&Aggregation::apply_all(stream.costs(v)));
+                }
+            }
+            for (k, &(s, u)) in first.iter_mut().zip(&self.pairs) {
+                if k.is_none() && Decision::new(safe_values[s], unsafe_values[u]).filtered {
+                    *k = Some(t);
+                    open -= 1;
+                }
+            }
+            if open == 0 {
+                break;
+            }
+        }
+        Ok(EpisodeReplay { len: episode.len(), crashed: episode.crashed, first_filtered: first })
+    }
+
+    /// Replays every episode of `episodes` (in parallel on rayon's pool) and scores every strategy
+    /// (SPEC section 7). `progress` is called after each finished episode, from worker threads.
+    /// Rows come ranked: score highest first, ties by strategy name.
+    ///
+    /// # Errors
+    /// An empty episode set, or dimensions that differ from the demonstrations'.
+    pub fn run(&self, episodes: &EpisodeSet, progress: &(dyn Fn(Progress) + Sync)) -> Result<Vec<AblationRow>> {
+        let replays = self.replay_all(episodes, progress)?;
+        let mut tallies = vec![StrategyTally::default(); self.strategies.len()];
+        for r in &replays {
+            for (tally, k) in tallies.iter_mut().zip(&r.first_filtered) {
+                tally.add(r.len, r.crashed, *k);
+            }
+        }
+        let mode = self.mode();
+        Ok(crate::score::rank(
+            self.strategies.iter().zip(&tallies).map(|(&s, t)| t.row(s, mode)).collect(),
+        ))
+    }
+
+    /// Replays every episode (in parallel), in file order.
+    ///
+    /// # Errors
+    /// As [`Ablation::run`].
+    pub fn replay_all(&self, episodes: &EpisodeSet, progress: &(dyn Fn(Progress) + Sync)) -> Result<Vec<EpisodeReplay>> {
+        if episodes.is_empty() {
+            return Err(DefenderError::InvalidArray {
+                path: episodes.source().to_owned(),
+                array: "ep_len",
+                expected: "at least one recorded episode".into(),
+                got: "none".into(),
+            });
+        }
+        let total = episodes.len();
+        let done = AtomicUsize::new(0);
+        (0..total)
+            .into_par_iter()
+            .map_init(
+                || (self.streams(), Vec::new()),
+                |(streams, element), i| {
+                    let (safe, unsafe_) = streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
+                    let replay = self.replay_with(episodes.episode(i), safe, unsafe_, element)?;
+                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(Progress { done: d, total, episode_len: replay.len });
+                    Ok(replay)
+                },
+            )
+            .collect()
+    }
+}
+
+/// Runs the ablation of `strategies` (all 576 when `None`) in `mode` over a recorded episode set.
+///
+/// # Errors
+/// As [`Demonstrations::new`], [`Ablation::new`] and [`Ablation::run`].
+pub fn ablate(
+    demos: &EpisodeSet,
+    episodes: &EpisodeSet,
+    strategies: Option<&[Strategy]>,
+    mode: Mode,
+    options: crate::demonstrations::CostOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<Vec<AblationRow>> {
+    episodes.check_env(
+        demos.meta().env_id.as_deref().unwrap_or(episodes.meta().env_id.as_deref().unwrap_or("")),
+        demos.obs_dim(),
+        demos.act_dim(),
+    )?;
+    let prepared = Demonstrations::new(demos, mode, options)?;
+    let all: Vec<Strategy>;
+    let list = match strategies {
+        Some(list) => list,
+        None => {
+            all = Strategy::all().collect();
+            &all
+        }
+    };
+    Ablation::new(&prepared, list)?.run(episodes, progress)
+}
