@@ -1,17 +1,206 @@
 //! `defender env ...`: the MuJoCo tasks.
 
-use clap::Subcommand;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+use defender_mujoco::{MujocoEnv, Rollout, registry, replay};
+use defender_rl::Env;
+use npyz::WriterBuilder;
 
 /// `defender env` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum EnvCommand {
     /// List the tasks with their observation and action dimensions and horizon.
     List,
+    /// Replay actions from a given state and write observations, rewards and termination flags.
+    #[command(after_help = REPLAY_HELP)]
+    Replay(ReplayArgs),
+}
+
+const REPLAY_HELP: &str = "\
+The rollout starts from QPOS/QVEL (MuJoCo's data reset, then the state set, as Gymnasium's
+set_state after reset) and applies the actions in order until the first terminated step or the
+last action; no time limit applies. OUT.npz holds:
+  obs         float64 [T'+1, obs_dim]  (row 0 = observation of the given state)
+  rew         float64 [T']
+  terminated  bool    [T']
+It is written atomically (a temporary file in the same folder, then renamed).
+
+Example (arrays as numpy writes them: np.save('q.npy', qpos), ...):
+  defender env replay --env Hopper-v5 --qpos q.npy --qvel v.npy --actions a.npy --out out.npz
+  python -c \"import numpy as np; d = np.load('out.npz'); print(d['obs'].shape, d['rew'].sum())\"";
+
+/// Arguments of `defender env replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// Gymnasium id of the task (see `defender env list`).
+    #[arg(long, value_name = "ID")]
+    env: String,
+    /// Initial joint positions: float64 .npy of shape [nq].
+    #[arg(long, value_name = "Q.npy")]
+    qpos: PathBuf,
+    /// Initial joint velocities: float64 .npy of shape [nv].
+    #[arg(long, value_name = "V.npy")]
+    qvel: PathBuf,
+    /// Actions: float64 .npy of shape [T, act_dim].
+    #[arg(long, value_name = "A.npy")]
+    actions: PathBuf,
+    /// Output .npz (obs, rew, terminated).
+    #[arg(long, value_name = "OUT.npz")]
+    out: PathBuf,
 }
 
 /// Runs an `env` subcommand.
+///
+/// # Errors
+/// An unknown task id, an unreadable or malformed input file (the message names the file and
+/// what was expected), or a failure to write the output.
 pub fn run(cmd: EnvCommand) -> anyhow::Result<()> {
     match cmd {
-        EnvCommand::List => anyhow::bail!("env list: the MuJoCo tasks are not built yet"),
+        EnvCommand::List => {
+            print!("{}", list_table());
+            Ok(())
+        }
+        EnvCommand::Replay(args) => run_replay(&args),
+    }
+}
+
+/// The task registry as an aligned table.
+fn list_table() -> String {
+    let header = ["id", "obs_dim", "act_dim", "horizon"];
+    let rows: Vec<[String; 4]> = registry()
+        .iter()
+        .map(|s| [s.id.to_string(), s.obs_dim.to_string(), s.act_dim.to_string(), s.max_episode_steps.to_string()])
+        .collect();
+    let width = |c: usize| rows.iter().map(|r| r[c].len()).chain([header[c].len()]).max().unwrap_or(0);
+    let widths = [width(0), width(1), width(2), width(3)];
+    let mut out = String::new();
+    let mut line = |cells: [&str; 4]| {
+        out.push_str(&format!(
+            "{:<w0$}  {:>w1$}  {:>w2$}  {:>w3$}\n",
+            cells[0],
+            cells[1],
+            cells[2],
+            cells[3],
+            w0 = widths[0],
+            w1 = widths[1],
+            w2 = widths[2],
+            w3 = widths[3]
+        ));
+    };
+    line(header);
+    for r in &rows {
+        line([&r[0], &r[1], &r[2], &r[3]]);
+    }
+    out
+}
+
+fn run_replay(args: &ReplayArgs) -> anyhow::Result<()> {
+    let mut env = MujocoEnv::from_id(&args.env)?;
+    let (nq, nv, act_dim) = (env.qpos().len(), env.qvel().len(), env.action_space().dim());
+    let id = env.id().to_owned();
+    let qpos = read_f64_npy(&args.qpos, &[Some(nq)], &format!("{id} qpos [nq = {nq}]"))?;
+    let qvel = read_f64_npy(&args.qvel, &[Some(nv)], &format!("{id} qvel [nv = {nv}]"))?;
+    let actions =
+        read_f64_npy(&args.actions, &[None, Some(act_dim)], &format!("{id} actions [T, act_dim = {act_dim}]"))?;
+    let rollout = replay(&mut env, &qpos, &qvel, &actions)
+        .with_context(|| format!("replaying {} on {id}", args.actions.display()))?;
+    write_rollout(&args.out, &rollout).with_context(|| format!("writing {}", args.out.display()))?;
+    let end = match (rollout.terminated.last(), rollout.unstable) {
+        (_, true) => "terminated (MuJoCo unstable)",
+        (Some(true), false) => "terminated",
+        _ => "not terminated",
+    };
+    println!(
+        "{id}: {} of {} steps, {end}, return {:.6} -> {}",
+        rollout.steps(),
+        actions.len() / act_dim,
+        rollout.rewards.iter().sum::<f64>(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Reads a float64 C-order .npy whose shape matches `shape` (`None` = any length).
+fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Result<Vec<f64>> {
+    let expected = || {
+        let dims: Vec<String> = shape.iter().map(|d| d.map_or("T".into(), |n| n.to_string())).collect();
+        format!("a float64 .npy of shape [{}] ({what})", dims.join(", "))
+    };
+    let file = File::open(path).with_context(|| format!("{}: cannot open (expected {})", path.display(), expected()))?;
+    let npy = npyz::NpyFile::new(BufReader::new(file))
+        .with_context(|| format!("{}: not a readable .npy file (expected {})", path.display(), expected()))?;
+    let dtype = npy.dtype();
+    let is_f64 = matches!(&dtype, npyz::DType::Plain(ts) if ts.to_string() == "<f8");
+    if !is_f64 {
+        bail!("{}: dtype {} (expected {})", path.display(), dtype.descr(), expected());
+    }
+    let got: Vec<u64> = npy.shape().to_vec();
+    let fits = got.len() == shape.len() && got.iter().zip(shape).all(|(&g, &e)| e.is_none_or(|e| g == e as u64));
+    if !fits {
+        bail!("{}: shape {:?} (expected {})", path.display(), got, expected());
+    }
+    if got.len() > 1 && npy.order() == npyz::Order::Fortran {
+        bail!("{}: Fortran-ordered array (expected C order: {})", path.display(), expected());
+    }
+    npy.into_vec::<f64>().with_context(|| format!("{}: reading the data (expected {})", path.display(), expected()))
+}
+
+/// Writes obs/rew/terminated to `out` atomically: a temporary file in the same folder, then rename.
+fn write_rollout(out: &Path, rollout: &Rollout) -> anyhow::Result<()> {
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = out.file_name().with_context(|| "the output path has no file name")?;
+    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+    let result = write_npz(&tmp, rollout).and_then(|()| {
+        std::fs::rename(&tmp, out).with_context(|| format!("renaming {} to {}", tmp.display(), out.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+fn write_npz(path: &Path, rollout: &Rollout) -> anyhow::Result<()> {
+    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut npz = npyz::npz::NpzWriter::new(BufWriter::new(file));
+    let steps = rollout.steps() as u64;
+    let mut obs = npz
+        .array::<f64>("obs", Default::default())?
+        .default_dtype()
+        .shape(&[steps + 1, rollout.obs_dim as u64])
+        .begin_nd()?;
+    obs.extend(rollout.obs.iter().copied())?;
+    obs.finish()?;
+    let mut rew = npz.array::<f64>("rew", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
+    rew.extend(rollout.rewards.iter().copied())?;
+    rew.finish()?;
+    let mut term = npz.array::<bool>("terminated", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
+    term.extend(rollout.terminated.iter().copied())?;
+    term.finish()?;
+    let mut writer = npz.zip_writer().finish()?;
+    writer.flush()?;
+    let file = writer.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn list_is_an_aligned_table_of_the_registry() {
+        let table = list_table();
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), 1 + registry().len());
+        assert!(lines.iter().all(|l| l.len() == lines[0].len()), "{table}");
+        assert!(lines[1].starts_with("Hopper-v5") && lines[1].ends_with("1000"), "{table}");
+        assert!(table.contains("InvertedDoublePendulum-v5"));
     }
 }
