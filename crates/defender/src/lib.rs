@@ -2,6 +2,7 @@
 
 mod ablation;
 mod atomic;
+mod defender_env;
 mod demonstrations;
 pub mod direct;
 mod dynamics;
@@ -16,6 +17,7 @@ mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
 pub use atomic::write_atomic;
+pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats};
 pub use demonstrations::{CostOptions, Demonstrations, Scaling};
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
 pub use episode_set::{Episode, EpisodeSet, Meta};

@@ -1,0 +1,314 @@
+//! `DefenderEnv`: DEFENDER as an environment wrapper (the paper's Algorithm 1, SPEC sections 4-6).
+//! Any agent trains on it unchanged: it sees an [`Env`].
+
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
+
+use crate::demonstrations::{CostOptions, Demonstrations};
+use crate::dynamics::{DynamicsConfig, DynamicsModel};
+use crate::episode_set::EpisodeSet;
+use crate::error::{DefenderError, Result};
+use crate::filter::{Decision, Filter};
+use crate::strategy::{Mode, Strategy};
+
+/// DEFENDER's settings (the `[defender]` section of a run's configuration).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DefenderConfig {
+    /// `SAFE/UNSAFE` (SPEC section 3); default `MeanDemoW5/MeanDemoW10`, the paper's best for
+    /// reward with state trajectories.
+    #[serde(default = "default_strategy")]
+    pub strategy: Strategy,
+    /// `state` (default) or `state-action`.
+    #[serde(default)]
+    pub mode: Mode,
+    /// Demonstrations used per group: the first N of each group in file order; all when `None`.
+    #[serde(default)]
+    pub num_demos: Option<usize>,
+    /// The reward of a filtered step; `None`: the lowest per-step reward of the demonstrations
+    /// used (both groups), SPEC section 5.
+    #[serde(default)]
+    pub r_task: Option<f64>,
+    /// Options of the alignment cost (off by default).
+    #[serde(default)]
+    pub cost: CostOptions,
+    /// The dynamics model.
+    #[serde(default)]
+    pub dynamics: DynamicsConfig,
+}
+
+fn default_strategy() -> Strategy {
+    Strategy::new(
+        crate::method::Method::new(crate::method::Aggregation::Mean, crate::window::Window::DemoW5),
+        crate::method::Method::new(crate::method::Aggregation::Mean, crate::window::Window::DemoW10),
+    )
+}
+
+impl Default for DefenderConfig {
+    fn default() -> Self {
+        Self {
+            strategy: default_strategy(),
+            mode: Mode::State,
+            num_demos: None,
+            r_task: None,
+            cost: CostOptions::default(),
+            dynamics: DynamicsConfig::default(),
+        }
+    }
+}
+
+/// Counters of a [`DefenderEnv`] since it was made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct DefenderStats {
+    /// Steps the agent took (filtered ones included).
+    pub steps: u64,
+    /// Steps that were filtered (the action was not executed).
+    pub filtered_steps: u64,
+    /// Steps sent to the wrapped environment.
+    pub real_steps: u64,
+    /// Episodes that ended.
+    pub episodes: u64,
+    /// Episodes DEFENDER ended (not crashes).
+    pub filtered_episodes: u64,
+    /// Episodes the environment terminated (SPEC section 6).
+    pub crashed_episodes: u64,
+    /// Episodes that reached the horizon.
+    pub truncated_episodes: u64,
+}
+
+/// Wraps any environment with DEFENDER. At each step the trajectory element (`s_t`, or
+/// `concat(s_t, a_t)`) goes to the [`Filter`]:
+///
+/// * executed (`Safe(tau) < Unsafe(tau)`): the inner environment steps, and the dynamics model
+///   learns from the real transition;
+/// * filtered: the inner environment is **not** stepped; the step returns the dynamics model's
+///   prediction as the observation, reward `R_task`, `terminated = true`, `info.filtered = true`.
+///
+/// Outcomes follow SPEC section 6: a filtered episode is not a crash; an episode the inner
+/// environment terminated is a crash (also when the time limit falls on that same step, as the
+/// trainer counts it); one it only truncated reached the horizon.
+#[derive(Debug)]
+pub struct DefenderEnv<E> {
+    inner: E,
+    filter: Filter,
+    dynamics: DynamicsModel,
+    config: DefenderConfig,
+    r_task: f64,
+    obs: Vec<f64>,
+    pred: Vec<f64>,
+    needs_reset: bool,
+    episode_steps: usize,
+    last_decision: Option<Decision>,
+    last_outcome: Option<Outcome>,
+    stats: DefenderStats,
+}
+
+impl<E: Env> DefenderEnv<E> {
+    /// Wraps `inner` with the demonstrations `demos` (both groups needed; the first
+    /// `config.num_demos` of each are used). The dynamics model's weights and sampling RNG are
+    /// drawn from `rng`.
+    ///
+    /// # Errors
+    /// Demonstrations that do not fit the environment (dimensions, `meta.env_id`), a missing group,
+    /// too few demonstrations, or an invalid configuration.
+    pub fn new<R: Rng + ?Sized>(inner: E, demos: &EpisodeSet, config: DefenderConfig, rng: &mut R) -> Result<Self> {
+        let (obs_dim, act_dim) = (inner.observation_space().dim(), inner.action_space().dim());
+        demos.check_env(inner.id(), obs_dim, act_dim)?;
+        let selected;
+        let demos = match config.num_demos {
+            Some(n) => {
+                selected = demos.select_demos(n)?;
+                &selected
+            }
+            None => demos,
+        };
+        let prepared = Demonstrations::new(demos, config.mode, config.cost)?;
+        let r_task = match config.r_task {
+            Some(r) if r.is_finite() => r,
+            Some(r) => return Err(DefenderError::Config(format!("r_task must be finite, got {r}"))),
+            None => f64::from(prepared.min_reward()),
+        };
+        let filter = Filter::new(&prepared, config.strategy)?;
+        let dynamics = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
+        Ok(Self {
+            inner,
+            filter,
+            dynamics,
+            config,
+            r_task,
+            obs: vec![0.0; obs_dim],
+            pred: vec![0.0; obs_dim],
+            needs_reset: true,
+            episode_steps: 0,
+            last_decision: None,
+            last_outcome: None,
+            stats: DefenderStats::default(),
+        })
+    }
+
+    /// The reward of a filtered step, as used.
+    pub fn r_task(&self) -> f64 {
+        self.r_task
+    }
+
+    /// The configuration (with `r_task` as given; see [`DefenderEnv::r_task`] for the value used).
+    pub fn config(&self) -> &DefenderConfig {
+        &self.config
+    }
+
+    /// Counters since construction.
+    pub fn stats(&self) -> DefenderStats {
+        self.stats
+    }
+
+    /// The filter's decision on the last step.
+    pub fn last_decision(&self) -> Option<Decision> {
+        self.last_decision
+    }
+
+    /// How the last finished episode ended.
+    pub fn last_outcome(&self) -> Option<Outcome> {
+        self.last_outcome
+    }
+
+    /// Steps taken in the current episode.
+    pub fn episode_steps(&self) -> usize {
+        self.episode_steps
+    }
+
+    /// The filter.
+    pub fn filter(&self) -> &Filter {
+        &self.filter
+    }
+
+    /// The dynamics model (its prediction error, counters).
+    pub fn dynamics(&self) -> &DynamicsModel {
+        &self.dynamics
+    }
+
+    /// The dynamics model, mutably (threading, checkpoint restore).
+    pub fn dynamics_mut(&mut self) -> &mut DynamicsModel {
+        &mut self.dynamics
+    }
+
+    /// Replaces the dynamics model (e.g. by one restored from a checkpoint).
+    ///
+    /// # Errors
+    /// Its dimensions differ from the environment's.
+    pub fn set_dynamics(&mut self, model: DynamicsModel) -> Result<()> {
+        let probe = vec![0.0; self.obs.len()];
+        let act = vec![0.0; self.inner.action_space().dim()];
+        let mut m = model;
+        m.predict(&probe, &act)?;
+        self.dynamics = m;
+        Ok(())
+    }
+
+    /// Restores the counters (checkpoint resume).
+    pub fn set_stats(&mut self, stats: DefenderStats) {
+        self.stats = stats;
+    }
+
+    /// The wrapped environment.
+    pub fn inner(&self) -> &E {
+        &self.inner
+    }
+
+    /// The wrapped environment, mutably.
+    pub fn inner_mut(&mut self) -> &mut E {
+        &mut self.inner
+    }
+
+    /// Unwraps.
+    pub fn into_inner(self) -> E {
+        self.inner
+    }
+
+    fn end_episode(&mut self, outcome: Outcome) {
+        self.needs_reset = true;
+        self.last_outcome = Some(outcome);
+        self.stats.episodes += 1;
+        match outcome {
+            Outcome::Filtered => self.stats.filtered_episodes += 1,
+            Outcome::Crashed => self.stats.crashed_episodes += 1,
+            Outcome::Truncated => self.stats.truncated_episodes += 1,
+        }
+    }
+}
+
+fn env_error(e: DefenderError) -> EnvError {
+    match e {
+        DefenderError::Env(e) => e,
+        other => EnvError::Simulator(format!("DEFENDER: {other}")),
+    }
+}
+
+impl<E: Env> Env for DefenderEnv<E> {
+    fn id(&self) -> &str {
+        self.inner.id()
+    }
+
+    fn observation_space(&self) -> &BoxSpace {
+        self.inner.observation_space()
+    }
+
+    fn action_space(&self) -> &BoxSpace {
+        self.inner.action_space()
+    }
+
+    fn max_episode_steps(&self) -> Option<usize> {
+        self.inner.max_episode_steps()
+    }
+
+    fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
+        let obs = self.inner.reset(seed)?;
+        self.inner.observation_space().check("observation from reset", &obs)?;
+        self.obs.copy_from_slice(&obs);
+        self.filter.reset();
+        self.needs_reset = false;
+        self.episode_steps = 0;
+        self.last_decision = None;
+        Ok(obs)
+    }
+
+    fn step(&mut self, action: &[f64]) -> defender_rl::Result<Step> {
+        if self.needs_reset {
+            return Err(EnvError::NeedsReset);
+        }
+        self.inner.action_space().check("action", action)?;
+        // tau <- tau + s_t (or (s_t, a_t)); Safe(tau) < Unsafe(tau) ?
+        let decision = self.filter.push(&self.obs, action).map_err(env_error)?;
+        self.last_decision = Some(decision);
+        self.stats.steps += 1;
+        self.episode_steps += 1;
+        if decision.filtered {
+            // s', r, done = theta(s, a), R_task, True: the action never reaches the environment.
+            self.dynamics.predict_into(&self.obs, action, &mut self.pred).map_err(env_error)?;
+            self.stats.filtered_steps += 1;
+            self.end_episode(Outcome::Filtered);
+            return Ok(Step {
+                obs: self.pred.clone(),
+                reward: self.r_task,
+                terminated: true,
+                truncated: false,
+                info: StepInfo { filtered: true, ..StepInfo::default() },
+            });
+        }
+        let step = self.inner.step(action)?;
+        self.stats.real_steps += 1;
+        // The dynamics model learns from real transitions only; an unstable step's observation
+        // is not a transition of the task.
+        if !step.info.unstable && step.obs.iter().all(|v| v.is_finite()) && step.obs.len() == self.obs.len() {
+            self.dynamics.observe(&self.obs, action, &step.obs).map_err(env_error)?;
+            self.obs.copy_from_slice(&step.obs);
+        }
+        if step.terminated {
+            self.end_episode(Outcome::Crashed);
+        } else if step.truncated {
+            self.end_episode(Outcome::Truncated);
+        }
+        Ok(step)
+    }
+}
