@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use defender_nn::faer::MatRef;
-use defender_nn::{Adam, AdamConfig, Mlp};
+use defender_nn::{Adam, Mlp};
 use serde::{Deserialize, Serialize};
 
 use crate::error::RlError;
@@ -55,31 +55,33 @@ pub(crate) fn check_action_len(action: &[f32], act_dim: usize) -> Result<(), RlE
 }
 
 /// Adam on one scalar parameter (SAC's `log_alpha`), with `torch.optim.Adam`'s arithmetic
-/// (the same as `defender_nn::Adam`, which works on whole networks).
+/// exactly as `defender_nn::Adam` does it for whole networks (hyperparameters as the f64 of
+/// their decimals, like Python floats; moments in f32).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(crate) struct ScalarAdam {
-    lr: f32,
+    lr: f64,
     step: u64,
     m: f32,
     v: f32,
 }
 
 impl ScalarAdam {
-    pub(crate) fn new(lr: f32) -> Self {
+    pub(crate) fn new(lr: f64) -> Self {
         Self { lr, step: 0, m: 0.0, v: 0.0 }
     }
 
     /// One step on `p` with gradient `g`.
     pub(crate) fn step(&mut self, p: &mut f32, g: f32) {
-        let AdamConfig { beta1, beta2, eps, .. } = AdamConfig::default();
+        const BETA1: f64 = 0.9;
+        const BETA2: f64 = 0.999;
+        const EPS: f32 = 1e-8;
         self.step += 1;
         let t = self.step as f64;
-        let bias_correction1 = 1.0 - f64::from(beta1).powf(t);
-        let bias_correction2_sqrt = (1.0 - f64::from(beta2).powf(t)).sqrt() as f32;
-        let step_size = (f64::from(self.lr) / bias_correction1) as f32;
-        self.m += (1.0 - beta1) * (g - self.m);
-        self.v = self.v * beta2 + (1.0 - beta2) * g * g;
-        *p -= step_size * (self.m / (self.v.sqrt() / bias_correction2_sqrt + eps));
+        let step_size = (self.lr / (1.0 - BETA1.powf(t))) as f32;
+        let bias_correction2_sqrt = (1.0 - BETA2.powf(t)).sqrt() as f32;
+        self.m += ((1.0 - BETA1) as f32) * (g - self.m);
+        self.v = self.v * (BETA2 as f32) + ((1.0 - BETA2) as f32) * g * g;
+        *p -= step_size * (self.m / (self.v.sqrt() / bias_correction2_sqrt + EPS));
     }
 }
 
@@ -134,7 +136,7 @@ mod tests {
         let mut mlp =
             Mlp::zeros(&[1, 1], defender_nn::Activation::Identity, defender_nn::Activation::Identity)
                 .unwrap();
-        let mut adam = Adam::new(&mlp, AdamConfig { lr: 3e-4, ..AdamConfig::default() });
+        let mut adam = Adam::new(&mlp, defender_nn::AdamConfig { lr: 3e-4, ..Default::default() });
         let mut scalar = ScalarAdam::new(3e-4);
         let mut p = 0.0f32;
         for k in 0..50 {

@@ -166,7 +166,7 @@ impl Sac {
         let (log_alpha, alpha_opt, target_entropy) = match config.ent_coef {
             EntCoef::Auto { target_entropy, init } => (
                 init.ln(),
-                Some(ScalarAdam::new(config.learning_rate as f32)),
+                Some(ScalarAdam::new(config.learning_rate)),
                 target_entropy.unwrap_or(-(a as f32)),
             ),
             EntCoef::Fixed(alpha) => (alpha.ln(), None, -(a as f32)),
@@ -247,6 +247,57 @@ impl Sac {
         }
     }
 
+    /// The actor's loss `mean(alpha logp - min(Q1, Q2)(s, a~))` through the (updated) critics,
+    /// for the actions sampled by the last [`Sac::sample_policy`] of the current states; leaves
+    /// its gradient in the actor (whose last forward pass must be that of the current states).
+    fn actor_backward(&mut self, alpha: f32) -> f32 {
+        let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
+        let ws = &mut self.ws;
+        concat_rows(&mut ws.pi_in, &ws.batch.obs, &ws.pi_act, b, o, a);
+        copy_out(self.q1.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q1);
+        copy_out(self.q2.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q2);
+        let mut actor_loss = 0.0f32;
+        for i in 0..b {
+            // The min's gradient goes to the smaller critic (the first on ties, as torch.min).
+            let first = ws.q1[i] <= ws.q2[i];
+            let min_q = if first { ws.q1[i] } else { ws.q2[i] };
+            actor_loss += (alpha * ws.logp[i] - min_q) / b as f32;
+            ws.grad1[i] = if first { -1.0 / b as f32 } else { 0.0 };
+            ws.grad2[i] = if first { 0.0 } else { -1.0 / b as f32 };
+        }
+        copy_out(self.q1.backward_input(rows(&ws.grad1, b, 1)), &mut ws.dinput);
+        for i in 0..b {
+            for j in 0..a {
+                ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
+            }
+        }
+        copy_out(self.q2.backward_input(rows(&ws.grad2, b, 1)), &mut ws.dinput);
+        for i in 0..b {
+            for j in 0..a {
+                ws.dact[i * a + j] += ws.dinput[i * (o + a) + o + j];
+            }
+        }
+        // Back through a~ = tanh(u), u = mean + std eps, and log pi:
+        //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
+        //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
+        //   once u is reparameterised), zero where the clamp cut log_std.
+        let scale = alpha / b as f32;
+        for i in 0..b {
+            for j in 0..a {
+                let k = i * a + j;
+                let t = ws.pi_act[k];
+                let one_minus = 1.0 - t * t;
+                let du = ws.dact[k] * one_minus + scale * 2.0 * t * one_minus / (one_minus + TANH_EPS);
+                ws.grad_actor[i * 2 * a + j] = du;
+                ws.grad_actor[i * 2 * a + a + j] =
+                    if ws.in_clamp[k] { du * ws.std[k] * ws.eps[k] - scale } else { 0.0 };
+            }
+        }
+        self.actor.zero_grad();
+        self.actor.backward_params(rows(&ws.grad_actor, b, 2 * a));
+        actor_loss
+    }
+
     /// One gradient step on a fresh batch.
     fn gradient_step(&mut self) -> Result<UpdateStats, RlError> {
         let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
@@ -306,49 +357,7 @@ impl Sac {
             opt.step(q);
         }
 
-        // Actor: mean(alpha logp - min(Q1, Q2)(s, a~)) through the updated critics.
-        concat_rows(&mut ws.pi_in, &ws.batch.obs, &ws.pi_act, b, o, a);
-        copy_out(self.q1.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q1);
-        copy_out(self.q2.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q2);
-        let mut actor_loss = 0.0f32;
-        for i in 0..b {
-            // The min's gradient goes to the smaller critic (the first on ties, as torch.min).
-            let first = ws.q1[i] <= ws.q2[i];
-            let min_q = if first { ws.q1[i] } else { ws.q2[i] };
-            actor_loss += (alpha * ws.logp[i] - min_q) / b as f32;
-            ws.grad1[i] = if first { -1.0 / b as f32 } else { 0.0 };
-            ws.grad2[i] = if first { 0.0 } else { -1.0 / b as f32 };
-        }
-        copy_out(self.q1.backward_input(rows(&ws.grad1, b, 1)), &mut ws.dinput);
-        for i in 0..b {
-            for j in 0..a {
-                ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
-            }
-        }
-        copy_out(self.q2.backward_input(rows(&ws.grad2, b, 1)), &mut ws.dinput);
-        for i in 0..b {
-            for j in 0..a {
-                ws.dact[i * a + j] += ws.dinput[i * (o + a) + o + j];
-            }
-        }
-        // Back through a~ = tanh(u), u = mean + std eps, and log pi:
-        //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
-        //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
-        //   once u is reparameterised), zero where the clamp cut log_std.
-        let scale = alpha / b as f32;
-        for i in 0..b {
-            for j in 0..a {
-                let k = i * a + j;
-                let t = ws.pi_act[k];
-                let one_minus = 1.0 - t * t;
-                let du = ws.dact[k] * one_minus + scale * 2.0 * t * one_minus / (one_minus + TANH_EPS);
-                ws.grad_actor[i * 2 * a + j] = du;
-                ws.grad_actor[i * 2 * a + a + j] =
-                    if ws.in_clamp[k] { du * ws.std[k] * ws.eps[k] - scale } else { 0.0 };
-            }
-        }
-        self.actor.zero_grad();
-        self.actor.backward_params(rows(&ws.grad_actor, b, 2 * a));
+        let actor_loss = self.actor_backward(alpha);
         self.actor_opt.step(&mut self.actor);
 
         self.n_updates += 1;
@@ -484,5 +493,123 @@ impl Agent for Sac {
 
     fn save_actor(&self, path: &Path) -> Result<(), RlError> {
         Ok(self.actor.save_safetensors(path)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small agent with a filled buffer and a sampled batch.
+    fn small(alpha: f32) -> Sac {
+        let config = SacConfig {
+            net_arch: vec![16, 16],
+            batch_size: 8,
+            buffer_size: 100,
+            learning_starts: 0,
+            ent_coef: EntCoef::Fixed(alpha),
+            ..SacConfig::default()
+        };
+        let mut sac = Sac::new(config, 3, 2, 5).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..40 {
+            let obs: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let next: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let act: Vec<f32> = (0..2).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let t = Transition {
+                obs: &obs,
+                action: &act,
+                reward: rng.random_range(-1.0..1.0),
+                next_obs: &next,
+                terminated: false,
+                truncated: false,
+            };
+            sac.observe(&t).unwrap();
+        }
+        sac.buffer.sample_into(&mut sac.rng, &mut sac.ws.batch).unwrap();
+        sac
+    }
+
+    /// The actor loss for the agent's current parameters, with the noise drawn from `rng`.
+    fn loss(sac: &mut Sac, rng: &ChaCha8Rng, alpha: f32) -> f32 {
+        let (b, o, a) = (sac.config.batch_size, sac.obs_dim, sac.act_dim);
+        sac.rng = rng.clone();
+        copy_out(sac.actor.forward(rows(&sac.ws.batch.obs, b, o)), &mut sac.ws.actor_out);
+        Sac::sample_policy(&mut sac.ws, &mut sac.rng, b, a, false);
+        sac.actor_backward(alpha)
+    }
+
+    #[test]
+    fn actor_gradient_matches_finite_differences() {
+        let alpha = 0.3;
+        let mut sac = small(alpha);
+        let rng = sac.rng.clone();
+        loss(&mut sac, &rng, alpha);
+        let analytic = sac.actor.grads().to_vec();
+        let n = sac.actor.num_params();
+        // Every parameter of the last layer (mean and log_std heads) and a spread of the others.
+        let last = (n - (16 * 4 + 4))..n;
+        let picked: Vec<usize> = (0..n).step_by(7).chain(last).collect();
+        let h = 2e-3f32;
+        let mut worst = 0.0f32;
+        for &k in &picked {
+            let p = sac.actor.params()[k];
+            sac.actor.params_mut()[k] = p + h;
+            let up = loss(&mut sac, &rng, alpha);
+            sac.actor.params_mut()[k] = p - h;
+            let down = loss(&mut sac, &rng, alpha);
+            sac.actor.params_mut()[k] = p;
+            let numeric = (up - down) / (2.0 * h);
+            let err = (numeric - analytic[k]).abs() / (1e-3 + numeric.abs().max(analytic[k].abs()));
+            worst = worst.max(err);
+            assert!(err < 2e-2, "param {k}: analytic {} numeric {numeric}", analytic[k]);
+        }
+        assert!(analytic.iter().any(|g| g.abs() > 1e-4), "all gradients vanished");
+        eprintln!("worst relative error {worst:e} over {} parameters", picked.len());
+    }
+
+    #[test]
+    fn log_prob_includes_the_tanh_correction() {
+        // With mean 0 and log_std 0 (std 1), log pi(a) = log N(u; 0, 1) - log(1 - tanh(u)^2 + 1e-6).
+        let mut ws = Workspace::new(1, 1, 1);
+        ws.actor_out.copy_from_slice(&[0.0, 0.0]);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let eps: f32 = rng.clone().sample(StandardNormal);
+        Sac::sample_policy(&mut ws, &mut rng, 1, 1, false);
+        let expected = -0.5 * eps * eps
+            - 0.5 * (2.0 * std::f32::consts::PI).ln()
+            - (1.0 - eps.tanh().powi(2) + 1e-6).ln();
+        assert!((ws.logp[0] - expected).abs() < 1e-5, "{} vs {expected}", ws.logp[0]);
+        assert!((ws.pi_act[0] - eps.tanh()).abs() < 1e-7);
+    }
+
+    #[test]
+    fn warm_up_is_uniform_then_the_policy_acts_and_update_waits_for_learning_starts() {
+        let config =
+            SacConfig { learning_starts: 10, batch_size: 4, net_arch: vec![8], ..SacConfig::default() };
+        let mut sac = Sac::new(config, 2, 1, 0).unwrap();
+        let mut act = [0.0f32];
+        for step in 0..12u64 {
+            sac.act(&[0.1, 0.2], false, &mut act).unwrap();
+            assert!((-1.0..=1.0).contains(&act[0]));
+            let obs = [0.1, 0.2];
+            let t = Transition {
+                obs: &obs,
+                action: &act,
+                reward: 1.0,
+                next_obs: &obs,
+                terminated: false,
+                truncated: true,
+            };
+            sac.observe(&t).unwrap();
+            // SB3: the first update after step learning_starts + 1.
+            assert_eq!(sac.update().unwrap().is_some(), step + 1 > 10, "step {step}");
+        }
+        let mut d1 = [0.0f32];
+        let mut d2 = [0.0f32];
+        sac.act(&[0.3, 0.4], true, &mut d1).unwrap();
+        sac.act(&[0.3, 0.4], true, &mut d2).unwrap();
+        assert_eq!(d1, d2, "the deterministic action must not depend on the RNG");
+        assert!(sac.act(&[0.3], true, &mut d1).is_err());
     }
 }
