@@ -61,7 +61,10 @@ fn latex_and_csv_to_files_and_plots() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(out.stdout.is_empty());
     let latex = std::fs::read_to_string(&tex).unwrap();
-    assert!(latex.contains("\\toprule") && latex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 50$\\pm$20.4 & 100"));
+    assert!(
+        latex.contains("\\toprule")
+            && latex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 50$\\pm$20.4 & 100")
+    );
     assert!(!root.join("out/tables.tex.tmp").exists());
     let stderr = text(&out.stderr);
     assert!(stderr.contains("wrote 12 plot files to"), "{stderr}");
@@ -88,7 +91,10 @@ fn incomplete_runs_warn_and_missing_bare_runs_are_noted() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stderr = text(&out.stderr);
     assert!(stderr.contains(&format!("warning: skipping {}: incomplete", running.display())), "{stderr}");
-    assert!(stderr.contains("note: % Time of Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps): no bare run"));
+    assert!(
+        stderr
+            .contains("note: % Time of Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps): no bare run")
+    );
 }
 
 #[test]
@@ -119,7 +125,9 @@ fn help_has_an_example_and_bad_usage_is_rejected() {
     assert!(out.status.success());
     let help = text(&out.stdout);
     assert!(help.contains("Examples:\n  defender report runs/"), "{help}");
-    assert!(help.contains("--format <FORMAT>") && help.contains("--plots <DIR>") && help.contains("--out <FILE>"));
+    assert!(
+        help.contains("--format <FORMAT>") && help.contains("--plots <DIR>") && help.contains("--out <FILE>")
+    );
     let out = defender(&["report"]);
     assert_eq!(out.status.code(), Some(2), "a run directory is required");
     let out = defender(&["report", ".", "--format", "html"]);
