@@ -35,7 +35,8 @@ pub struct Row {
 }
 
 impl Row {
-    /// `SAC`, or `SAC MeanDemoW5/MeanDemoW10 (state)`: for notes and warnings.
+    /// `Hopper-v5 SAC (400 steps)`, or `Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps)`:
+    /// for notes and warnings.
     pub fn label(&self) -> String {
         let algo = self.algo.to_uppercase();
         match &self.filter {
