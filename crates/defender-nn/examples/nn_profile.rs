@@ -33,6 +33,16 @@ fn main() {
             sac_shape::SacShape::flops() as f64 / us / 1e3
         );
     }
+    {
+        // Acting: the actor at batch 1, every environment step.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let mut pi = Mlp::new(&[11, 256, 256, 6], Activation::Relu, Activation::Identity, &mut rng);
+        let s = Mat::<f32>::from_fn(1, 11, |_, j| j as f32 * 0.1);
+        let us = best_of(1000, || {
+            black_box(pi.forward(s.as_ref()));
+        });
+        println!("actor 11-256-256-6 forward at batch 1: {us:.1} us");
+    }
     let b = 256;
     for widths in [vec![14, 256, 256, 1], vec![256, 256, 256, 256]] {
         let macs: usize = widths.windows(2).map(|w| w[0] * w[1] * b).sum();
