@@ -81,7 +81,8 @@ impl Ablation {
             let w = windows.iter().position(|&w| w == m.window).unwrap_or(0);
             w * Aggregation::ALL.len() + m.aggregation.index()
         };
-        let pairs = list.iter().map(|s| (slot(&safe_windows, s.safe), slot(&unsafe_windows, s.unsafe_))).collect();
+        let pairs =
+            list.iter().map(|s| (slot(&safe_windows, s.safe), slot(&unsafe_windows, s.unsafe_))).collect();
         Ok(Self { demos: demos.clone(), strategies: list, safe_windows, unsafe_windows, pairs })
     }
 
@@ -121,7 +122,10 @@ impl Ablation {
     ) -> Result<EpisodeReplay> {
         if episode.obs_dim != self.demos.obs_dim() || episode.act_dim != self.demos.act_dim() {
             return Err(DefenderError::Mismatch {
-                what: format!("episode {} dimensions (obs_dim, act_dim) vs the demonstrations'", episode.index),
+                what: format!(
+                    "episode {} dimensions (obs_dim, act_dim) vs the demonstrations'",
+                    episode.index
+                ),
                 expected: format!("({}, {})", self.demos.obs_dim(), self.demos.act_dim()),
                 got: format!("({}, {})", episode.obs_dim, episode.act_dim),
             });
@@ -161,7 +165,11 @@ impl Ablation {
     ///
     /// # Errors
     /// An empty episode set, or dimensions that differ from the demonstrations'.
-    pub fn run(&self, episodes: &EpisodeSet, progress: &(dyn Fn(Progress) + Sync)) -> Result<Vec<AblationRow>> {
+    pub fn run(
+        &self,
+        episodes: &EpisodeSet,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Vec<AblationRow>> {
         let replays = self.replay_all(episodes, progress)?;
         let mut tallies = vec![StrategyTally::default(); self.strategies.len()];
         for r in &replays {
@@ -170,16 +178,18 @@ impl Ablation {
             }
         }
         let mode = self.mode();
-        Ok(crate::score::rank(
-            self.strategies.iter().zip(&tallies).map(|(&s, t)| t.row(s, mode)).collect(),
-        ))
+        Ok(crate::score::rank(self.strategies.iter().zip(&tallies).map(|(&s, t)| t.row(s, mode)).collect()))
     }
 
     /// Replays every episode (in parallel), in file order.
     ///
     /// # Errors
     /// As [`Ablation::run`].
-    pub fn replay_all(&self, episodes: &EpisodeSet, progress: &(dyn Fn(Progress) + Sync)) -> Result<Vec<EpisodeReplay>> {
+    pub fn replay_all(
+        &self,
+        episodes: &EpisodeSet,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Vec<EpisodeReplay>> {
         if episodes.is_empty() {
             return Err(DefenderError::InvalidArray {
                 path: episodes.source().to_owned(),
@@ -195,7 +205,8 @@ impl Ablation {
             .map_init(
                 || (self.streams(), Vec::new()),
                 |(streams, element), i| {
-                    let (safe, unsafe_) = streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
+                    let (safe, unsafe_) =
+                        streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
                     let replay = self.replay_with(episodes.episode(i), safe, unsafe_, element)?;
                     let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(Progress { done: d, total, episode_len: replay.len });

@@ -113,7 +113,12 @@ impl<E: Env> DefenderEnv<E> {
     /// # Errors
     /// Demonstrations that do not fit the environment (dimensions, `meta.env_id`), a missing group,
     /// too few demonstrations, or an invalid configuration.
-    pub fn new<R: Rng + ?Sized>(inner: E, demos: &EpisodeSet, config: DefenderConfig, rng: &mut R) -> Result<Self> {
+    pub fn new<R: Rng + ?Sized>(
+        inner: E,
+        demos: &EpisodeSet,
+        config: DefenderConfig,
+        rng: &mut R,
+    ) -> Result<Self> {
         let (obs_dim, act_dim) = (inner.observation_space().dim(), inner.action_space().dim());
         demos.check_env(inner.id(), obs_dim, act_dim)?;
         let selected;

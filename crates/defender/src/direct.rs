@@ -68,7 +68,10 @@ pub fn decisions(strategy: Strategy, mode: Mode, demos: &EpisodeSet, episode: Ep
     let mut out = Vec::new();
     for t in 0..episode.len() {
         let x = &seq[..(t + 1) * dim];
-        let d = Decision::new(group_value(strategy.safe, x, &safe, dim), group_value(strategy.unsafe_, x, &unsafe_, dim));
+        let d = Decision::new(
+            group_value(strategy.safe, x, &safe, dim),
+            group_value(strategy.unsafe_, x, &unsafe_, dim),
+        );
         out.push(d);
         if d.filtered {
             break;
@@ -78,12 +81,22 @@ pub fn decisions(strategy: Strategy, mode: Mode, demos: &EpisodeSet, episode: Ep
 }
 
 /// The first filtered step `k` of `episode` under `strategy`, by definition.
-pub fn first_filtered(strategy: Strategy, mode: Mode, demos: &EpisodeSet, episode: Episode<'_>) -> Option<usize> {
+pub fn first_filtered(
+    strategy: Strategy,
+    mode: Mode,
+    demos: &EpisodeSet,
+    episode: Episode<'_>,
+) -> Option<usize> {
     decisions(strategy, mode, demos, episode).iter().position(|d| d.filtered)
 }
 
 /// SPEC section 7's scores of `strategies`, ranked, by definition.
-pub fn ablation(demos: &EpisodeSet, episodes: &EpisodeSet, strategies: &[Strategy], mode: Mode) -> Vec<AblationRow> {
+pub fn ablation(
+    demos: &EpisodeSet,
+    episodes: &EpisodeSet,
+    strategies: &[Strategy],
+    mode: Mode,
+) -> Vec<AblationRow> {
     let rows = strategies
         .iter()
         .map(|&s| {

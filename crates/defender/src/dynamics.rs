@@ -66,7 +66,7 @@ impl Default for DynamicsConfig {
 impl DynamicsConfig {
     fn check(&self) -> Result<()> {
         let bad = |what: &str| Err(DefenderError::Config(format!("dynamics: {what}")));
-        if self.hidden.iter().any(|&h| h == 0) {
+        if self.hidden.contains(&0) {
             return bad("hidden widths must be >= 1");
         }
         if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
@@ -123,7 +123,11 @@ impl Stats {
     fn export(&self, mean: &mut [f32], std: &mut [f32]) {
         for k in 0..self.mean.len() {
             mean[k] = self.mean[k] as f32;
-            std[k] = if self.count == 0 { 1.0 } else { ((self.m2[k] / self.count as f64).sqrt()).max(1e-4) as f32 };
+            std[k] = if self.count == 0 {
+                1.0
+            } else {
+                ((self.m2[k] / self.count as f64).sqrt()).max(1e-4) as f32
+            };
         }
     }
 }
@@ -188,7 +192,12 @@ impl DynamicsModel {
     ///
     /// # Errors
     /// A zero dimension or an invalid configuration.
-    pub fn new<R: Rng + ?Sized>(obs_dim: usize, act_dim: usize, config: DynamicsConfig, rng: &mut R) -> Result<Self> {
+    pub fn new<R: Rng + ?Sized>(
+        obs_dim: usize,
+        act_dim: usize,
+        config: DynamicsConfig,
+        rng: &mut R,
+    ) -> Result<Self> {
         config.check()?;
         if obs_dim == 0 || act_dim == 0 {
             return Err(DefenderError::Config(format!(
@@ -204,7 +213,14 @@ impl DynamicsModel {
         Ok(Self::assemble(config, obs_dim, act_dim, net, adam, sampler))
     }
 
-    fn assemble(config: DynamicsConfig, obs_dim: usize, act_dim: usize, net: Mlp, adam: Adam, rng: ChaCha8Rng) -> Self {
+    fn assemble(
+        config: DynamicsConfig,
+        obs_dim: usize,
+        act_dim: usize,
+        net: Mlp,
+        adam: Adam,
+        rng: ChaCha8Rng,
+    ) -> Self {
         let (cap, b, inp) = (config.buffer_size, config.batch_size, obs_dim + act_dim);
         Self {
             obs_dim,
@@ -271,7 +287,12 @@ impl DynamicsModel {
         self.error
     }
 
-    fn normalise_input(&self, obs: impl Iterator<Item = f32>, act: impl Iterator<Item = f32>, out: &mut [f32]) {
+    fn normalise_input(
+        &self,
+        obs: impl Iterator<Item = f32>,
+        act: impl Iterator<Item = f32>,
+        out: &mut [f32],
+    ) {
         for (k, v) in obs.chain(act).enumerate() {
             out[k] = (v - self.in_mean[k]) / self.in_std[k];
         }
@@ -337,7 +358,8 @@ impl DynamicsModel {
             self.normalise_input(obs.iter().map(|&v| v as f32), action.iter().map(|&v| v as f32), &mut one);
             let y = self.net.forward(MatRef::from_row_major_slice(&one, 1, one.len()));
             for k in 0..self.obs_dim {
-                let pred = obs[k] + f64::from(self.d_mean[k]) + f64::from(self.d_std[k]) * f64::from(y[(0, k)]);
+                let pred =
+                    obs[k] + f64::from(self.d_mean[k]) + f64::from(self.d_std[k]) * f64::from(y[(0, k)]);
                 se += (pred - next_obs[k]).powi(2);
             }
             self.one_in = one;
@@ -355,8 +377,8 @@ impl DynamicsModel {
             self.buf_obs[p * o + k] = obs[k] as f32;
             self.buf_next[p * o + k] = next_obs[k] as f32;
         }
-        for k in 0..a {
-            self.buf_act[p * a + k] = action[k] as f32;
+        for (dst, &v) in self.buf_act[p * a..(p + 1) * a].iter_mut().zip(action) {
+            *dst = v as f32;
         }
         self.pos = (p + 1) % self.config.buffer_size;
         self.len = (self.len + 1).min(self.config.buffer_size);
@@ -368,7 +390,9 @@ impl DynamicsModel {
         debug_assert_eq!(self.in_mean.len(), inp);
         self.real_steps += 1;
 
-        if self.len >= self.config.learning_starts && self.real_steps % self.config.train_freq as u64 == 0 {
+        if self.len >= self.config.learning_starts
+            && self.real_steps.is_multiple_of(self.config.train_freq as u64)
+        {
             for _ in 0..self.config.gradient_steps {
                 self.train_step();
             }
@@ -389,8 +413,11 @@ impl DynamicsModel {
         let mut g = std::mem::take(&mut self.batch_grad);
         for r in 0..b {
             let i = self.rng.random_range(0..self.len);
-            let (obs, act, next) =
-                (&self.buf_obs[i * o..(i + 1) * o], &self.buf_act[i * a..(i + 1) * a], &self.buf_next[i * o..(i + 1) * o]);
+            let (obs, act, next) = (
+                &self.buf_obs[i * o..(i + 1) * o],
+                &self.buf_act[i * a..(i + 1) * a],
+                &self.buf_next[i * o..(i + 1) * o],
+            );
             self.normalise_input(obs.iter().copied(), act.iter().copied(), &mut x[r * inp..(r + 1) * inp]);
             for k in 0..o {
                 t[r * o + k] = (next[k] - obs[k] - self.d_mean[k]) / self.d_std[k];
@@ -477,23 +504,39 @@ impl DynamicsModel {
         widths.extend_from_slice(&s.config.hidden);
         widths.push(s.obs_dim);
         if net.widths() != widths.as_slice() {
-            return Err(bad(format!("network widths {:?} do not match the saved config {widths:?}", net.widths())));
+            return Err(bad(format!(
+                "network widths {:?} do not match the saved config {widths:?}",
+                net.widths()
+            )));
         }
         let adam = Adam::load_safetensors(dir.join("dynamics_adam.safetensors"), &net)?;
-        let seed: [u8; 32] = s.rng_seed.as_slice().try_into().map_err(|_| bad("rng_seed must be 32 bytes".into()))?;
+        let seed: [u8; 32] =
+            s.rng_seed.as_slice().try_into().map_err(|_| bad("rng_seed must be 32 bytes".into()))?;
         let mut rng = ChaCha8Rng::from_seed(seed);
         rng.set_stream(s.rng_stream);
         rng.set_word_pos(s.rng_word_pos.parse().map_err(|e| bad(format!("rng_word_pos: {e}")))?);
         let mut m = Self::assemble(s.config, s.obs_dim, s.act_dim, net, adam, rng);
         let buffer = dir.join("dynamics_buffer.npz");
         let mut npz = NpzReader::open(&buffer)?;
-        for (name, dst, width) in
-            [("obs", &mut m.buf_obs, s.obs_dim), ("act", &mut m.buf_act, s.act_dim), ("next_obs", &mut m.buf_next, s.obs_dim)]
-        {
-            let arr = npz.read(name)?.ok_or_else(|| bad(format!("{}: array '{name}' missing", buffer.display())))?;
+        for (name, dst, width) in [
+            ("obs", &mut m.buf_obs, s.obs_dim),
+            ("act", &mut m.buf_act, s.act_dim),
+            ("next_obs", &mut m.buf_next, s.obs_dim),
+        ] {
+            let arr = npz
+                .read(name)?
+                .ok_or_else(|| bad(format!("{}: array '{name}' missing", buffer.display())))?;
             match arr.values {
-                Values::F32(v) if arr.shape == [s.len, width] && v.len() <= dst.len() => dst[..v.len()].copy_from_slice(&v),
-                _ => return Err(bad(format!("{}: array '{name}' is not float32 [{}, {width}]", buffer.display(), s.len))),
+                Values::F32(v) if arr.shape == [s.len, width] && v.len() <= dst.len() => {
+                    dst[..v.len()].copy_from_slice(&v)
+                }
+                _ => {
+                    return Err(bad(format!(
+                        "{}: array '{name}' is not float32 [{}, {width}]",
+                        buffer.display(),
+                        s.len
+                    )));
+                }
             }
         }
         m.pos = s.pos;
@@ -524,7 +567,13 @@ mod tests {
     }
 
     fn small_config() -> DynamicsConfig {
-        DynamicsConfig { hidden: vec![64, 64], batch_size: 64, buffer_size: 5000, learning_rate: 1e-3, ..Default::default() }
+        DynamicsConfig {
+            hidden: vec![64, 64],
+            batch_size: 64,
+            buffer_size: 5000,
+            learning_rate: 1e-3,
+            ..Default::default()
+        }
     }
 
     #[test]
@@ -540,7 +589,11 @@ mod tests {
             if t == 99 {
                 first = Some(m.prediction_error().mean);
             }
-            s = if t % 50 == 49 { vec![rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0] } else { n };
+            s = if t % 50 == 49 {
+                vec![rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0]
+            } else {
+                n
+            };
         }
         let err = m.prediction_error();
         assert_eq!(err.count, 3000);
@@ -577,7 +630,9 @@ mod tests {
         assert!(m.observe(&[0.0; 3], &[0.0; 2], &[0.0; 3]).is_err());
         assert!(m.observe(&[0.0; 3], &[f64::NAN], &[0.0; 3]).is_err());
         assert_eq!(m.buffer_len(), 0);
-        assert!(DynamicsModel::new(3, 1, DynamicsConfig { batch_size: 0, ..small_config() }, &mut rng).is_err());
+        assert!(
+            DynamicsModel::new(3, 1, DynamicsConfig { batch_size: 0, ..small_config() }, &mut rng).is_err()
+        );
     }
 
     #[test]

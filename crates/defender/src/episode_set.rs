@@ -164,7 +164,12 @@ impl EpisodeSet {
             return Err(bad(
                 &path,
                 "obs",
-                &format!("{} values ({} observations of dim {})", (n + 1) * self.obs_dim, n + 1, self.obs_dim),
+                &format!(
+                    "{} values ({} observations of dim {})",
+                    (n + 1) * self.obs_dim,
+                    n + 1,
+                    self.obs_dim
+                ),
                 format!("{}", obs.len()),
             ));
         }
@@ -284,10 +289,18 @@ impl EpisodeSet {
     pub fn require_both_groups(&self) -> Result<()> {
         let (safe, unsafe_) = self.group_sizes();
         if safe == 0 {
-            return Err(DefenderError::MissingGroup { path: self.source.clone(), group: "safe", crashed: false });
+            return Err(DefenderError::MissingGroup {
+                path: self.source.clone(),
+                group: "safe",
+                crashed: false,
+            });
         }
         if unsafe_ == 0 {
-            return Err(DefenderError::MissingGroup { path: self.source.clone(), group: "unsafe", crashed: true });
+            return Err(DefenderError::MissingGroup {
+                path: self.source.clone(),
+                group: "unsafe",
+                crashed: true,
+            });
         }
         Ok(())
     }
@@ -397,16 +410,31 @@ impl EpisodeSet {
             return Err(bad(path, "ep_len", "at least one episode (an empty set is refused)", "shape [0]"));
         }
         if let Some((i, n)) = ep_len.iter().enumerate().find(|(_, n)| **n < 1) {
-            return Err(bad(path, "ep_len", "N_i >= 1 transitions per episode", format!("ep_len[{i}] = {n}")));
+            return Err(bad(
+                path,
+                "ep_len",
+                "N_i >= 1 transitions per episode",
+                format!("ep_len[{i}] = {n}"),
+            ));
         }
         let ep_len: Vec<usize> = ep_len.into_iter().map(|n| n as usize).collect();
         let crashed = match (crashed.shape.as_slice(), crashed.values) {
             ([len], Values::Bool(v)) if *len == e => v,
             ([_], Values::Bool(_)) => {
-                return Err(bad(path, "crashed", &format!("shape [{e}] (one flag per episode)"), format!("shape {:?}", crashed.shape)));
+                return Err(bad(
+                    path,
+                    "crashed",
+                    &format!("shape [{e}] (one flag per episode)"),
+                    format!("shape {:?}", crashed.shape),
+                ));
             }
             (_, Values::Bool(_)) => {
-                return Err(bad(path, "crashed", &format!("a 1-D array [{e}]"), format!("shape {:?}", crashed.shape)));
+                return Err(bad(
+                    path,
+                    "crashed",
+                    &format!("a 1-D array [{e}]"),
+                    format!("shape {:?}", crashed.shape),
+                ));
             }
             _ => return Err(bad(path, "crashed", "dtype bool", crashed.descr)),
         };
@@ -434,7 +462,12 @@ impl EpisodeSet {
         };
         for (key, value, dim) in [("obs_dim", meta.obs_dim, obs_dim), ("act_dim", meta.act_dim, act_dim)] {
             if let Some(v) = value.filter(|&v| v != dim) {
-                return Err(bad(path, "meta", &format!("{key} = {dim} (as the arrays have)"), format!("{key} = {v}")));
+                return Err(bad(
+                    path,
+                    "meta",
+                    &format!("{key} = {dim} (as the arrays have)"),
+                    format!("{key} = {v}"),
+                ));
             }
         }
         let mut obs_start = Vec::with_capacity(e);
@@ -446,7 +479,18 @@ impl EpisodeSet {
         let mut meta = meta;
         meta.obs_dim = Some(obs_dim);
         meta.act_dim = Some(act_dim);
-        Ok(Self { source: path.to_owned(), obs_dim, act_dim, obs, act, rew, ep_len, crashed, obs_start, meta })
+        Ok(Self {
+            source: path.to_owned(),
+            obs_dim,
+            act_dim,
+            obs,
+            act,
+            rew,
+            ep_len,
+            crashed,
+            obs_start,
+            meta,
+        })
     }
 
     /// Writes the set in the format of SPEC section 8 (float32 arrays, int64 `ep_len`, bool
@@ -477,13 +521,23 @@ impl EpisodeSet {
 }
 
 fn bad(path: &Path, array: &'static str, expected: &str, got: impl Into<String>) -> DefenderError {
-    DefenderError::InvalidArray { path: path.to_owned(), array, expected: expected.to_owned(), got: got.into() }
+    DefenderError::InvalidArray {
+        path: path.to_owned(),
+        array,
+        expected: expected.to_owned(),
+        got: got.into(),
+    }
 }
 
 fn check_finite(path: &Path, array: &'static str, values: &[f32]) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(bad(path, array, "finite values (no NaN or infinity)", format!("{} at flat index {i}", values[i]))),
+        Some(i) => Err(bad(
+            path,
+            array,
+            "finite values (no NaN or infinity)",
+            format!("{} at flat index {i}", values[i]),
+        )),
     }
 }
 
@@ -493,7 +547,12 @@ fn floats(path: &Path, array: &'static str, values: Values, descr: &str) -> Resu
         Values::F64(v) => {
             // f64 values beyond f32's range would become infinite: report them as such.
             if let Some(i) = v.iter().position(|x| x.is_finite() && (*x as f32).is_infinite()) {
-                return Err(bad(path, array, "values within float32 range", format!("{} at flat index {i}", v[i])));
+                return Err(bad(
+                    path,
+                    array,
+                    "values within float32 range",
+                    format!("{} at flat index {i}", v[i]),
+                ));
             }
             Ok(v.into_iter().map(|x| x as f32).collect())
         }
@@ -501,11 +560,27 @@ fn floats(path: &Path, array: &'static str, values: Values, descr: &str) -> Resu
     }
 }
 
-fn float_matrix(path: &Path, array: &'static str, a: Array, rows: usize, rule: &str) -> Result<(Vec<f32>, usize)> {
+fn float_matrix(
+    path: &Path,
+    array: &'static str,
+    a: Array,
+    rows: usize,
+    rule: &str,
+) -> Result<(Vec<f32>, usize)> {
     match a.shape.as_slice() {
         [r, c] if *r == rows && *c >= 1 => Ok((floats(path, array, a.values, &a.descr)?, *c)),
-        [_, c] if *c >= 1 => Err(bad(path, array, &format!("{rows} rows ({rule} over ep_len)"), format!("shape {:?}", a.shape))),
-        _ => Err(bad(path, array, &format!("a 2-D array [{rule}, dim] with dim >= 1"), format!("shape {:?}", a.shape))),
+        [_, c] if *c >= 1 => Err(bad(
+            path,
+            array,
+            &format!("{rows} rows ({rule} over ep_len)"),
+            format!("shape {:?}", a.shape),
+        )),
+        _ => Err(bad(
+            path,
+            array,
+            &format!("a 2-D array [{rule}, dim] with dim >= 1"),
+            format!("shape {:?}", a.shape),
+        )),
     }
 }
 
@@ -515,8 +590,11 @@ fn parse_meta(path: &Path, m: Array) -> Result<Meta> {
         (1, _) => return Err(bad(path, "meta", "dtype uint8 (UTF-8 JSON bytes)", m.descr)),
         _ => return Err(bad(path, "meta", "a 1-D uint8 array", format!("shape {:?}", m.shape))),
     };
-    let text = String::from_utf8(bytes).map_err(|e| bad(path, "meta", "UTF-8 text", format!("invalid UTF-8 ({e})")))?;
-    serde_json::from_str(&text).map_err(|e| bad(path, "meta", "a JSON object (env_id, obs_dim, act_dim, provenance)", format!("{e}")))
+    let text = String::from_utf8(bytes)
+        .map_err(|e| bad(path, "meta", "UTF-8 text", format!("invalid UTF-8 ({e})")))?;
+    serde_json::from_str(&text).map_err(|e| {
+        bad(path, "meta", "a JSON object (env_id, obs_dim, act_dim, provenance)", format!("{e}"))
+    })
 }
 
 #[cfg(test)]
@@ -524,10 +602,12 @@ mod tests {
     use super::*;
 
     pub(crate) fn small_set() -> EpisodeSet {
-        let mut set = EpisodeSet::new(2, 1, Meta { env_id: Some("Test-v0".into()), ..Meta::default() }).unwrap();
+        let mut set =
+            EpisodeSet::new(2, 1, Meta { env_id: Some("Test-v0".into()), ..Meta::default() }).unwrap();
         set.push_episode(&[0., 0., 1., 1., 2., 2.], &[0.5, -0.5], &[1.0, 2.0], false).unwrap();
         set.push_episode(&[5., 5., 6., 6.], &[0.1], &[-3.0], true).unwrap();
-        set.push_episode(&[7., 7., 8., 8., 9., 9., 10., 10.], &[0.2, 0.3, 0.4], &[0.0, 1.0, 2.0], false).unwrap();
+        set.push_episode(&[7., 7., 8., 8., 9., 9., 10., 10.], &[0.2, 0.3, 0.4], &[0.0, 1.0, 2.0], false)
+            .unwrap();
         set
     }
 

@@ -36,7 +36,9 @@ pub enum DefenderError {
         got: String,
     },
     /// A demonstration set lacks one of the two groups the filter needs (SPEC section 1).
-    #[error("{path}: the {group} group is empty (crashed = {crashed}); a demonstration set needs both safe and unsafe demonstrations")]
+    #[error(
+        "{path}: the {group} group is empty (crashed = {crashed}); a demonstration set needs both safe and unsafe demonstrations"
+    )]
     MissingGroup {
         /// The file.
         path: PathBuf,

@@ -22,8 +22,8 @@ impl Decision {
     /// The decision rule of SPEC section 4: execute iff `safe < unsafe`; otherwise (ties, and any
     /// NaN) filter.
     pub fn new(safe_cost: f64, unsafe_cost: f64) -> Self {
-        // Written as a negation so that a NaN filters too.
-        let filtered = !(safe_cost < unsafe_cost);
+        // Executed only when `safe < unsafe` holds; equal and unordered (NaN) filter.
+        let filtered = safe_cost.partial_cmp(&unsafe_cost) != Some(std::cmp::Ordering::Less);
         Self { filtered, safe_cost, unsafe_cost }
     }
 }
@@ -119,7 +119,8 @@ impl Filter {
     }
 
     fn check_lengths(&self, obs: usize, act: usize) -> Result<()> {
-        for (what, got, expected) in [("observation", obs, self.demos.obs_dim()), ("action", act, self.demos.act_dim())]
+        for (what, got, expected) in
+            [("observation", obs, self.demos.obs_dim()), ("action", act, self.demos.act_dim())]
         {
             if got != expected {
                 return Err(DefenderError::Mismatch {

@@ -46,9 +46,7 @@ impl Aggregation {
         match self {
             Aggregation::Min => costs.iter().fold(f64::INFINITY, |a, &c| a.min(f64::from(c))),
             Aggregation::Max => costs.iter().fold(f64::NEG_INFINITY, |a, &c| a.max(f64::from(c))),
-            Aggregation::Mean => {
-                costs.iter().map(|&c| f64::from(c)).sum::<f64>() / costs.len() as f64
-            }
+            Aggregation::Mean => costs.iter().map(|&c| f64::from(c)).sum::<f64>() / costs.len() as f64,
         }
     }
 
@@ -179,9 +177,14 @@ mod tests {
 
     #[test]
     fn unknown_methods_are_errors_listing_the_valid_forms() {
-        for bad in ["", "Min", "Both", "meanDemoW5", "MeanDemoW7", "MedianBoth", "MeanDemoW5 ", "MinBoth/MinBoth"] {
+        for bad in
+            ["", "Min", "Both", "meanDemoW5", "MeanDemoW7", "MedianBoth", "MeanDemoW5 ", "MinBoth/MinBoth"]
+        {
             let err = bad.parse::<Method>().unwrap_err().to_string();
-            assert!(err.contains("unknown method") && err.contains("DemoW10") && err.contains("Mean"), "{err}");
+            assert!(
+                err.contains("unknown method") && err.contains("DemoW10") && err.contains("Mean"),
+                "{err}"
+            );
         }
     }
 

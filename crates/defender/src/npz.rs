@@ -55,7 +55,10 @@ impl NpzReader {
             Ok(entry) => entry,
             Err(zip::result::ZipError::FileNotFound) => return Ok(None),
             Err(e) => {
-                return Err(DefenderError::Format { path, what: format!("array '{name}': unreadable zip entry: {e}") });
+                return Err(DefenderError::Format {
+                    path,
+                    what: format!("array '{name}': unreadable zip entry: {e}"),
+                });
             }
         };
         read_npy(entry, &path, name).map(Some)
@@ -63,12 +66,19 @@ impl NpzReader {
 }
 
 fn bad(path: &Path, array: &'static str, expected: &str, got: impl Into<String>) -> DefenderError {
-    DefenderError::InvalidArray { path: path.to_owned(), array, expected: expected.to_owned(), got: got.into() }
+    DefenderError::InvalidArray {
+        path: path.to_owned(),
+        array,
+        expected: expected.to_owned(),
+        got: got.into(),
+    }
 }
 
 fn read_npy(reader: impl Read, path: &Path, name: &'static str) -> Result<Array> {
-    let npy = NpyFile::new(reader)
-        .map_err(|e| DefenderError::Format { path: path.to_owned(), what: format!("array '{name}': bad .npy: {e}") })?;
+    let npy = NpyFile::new(reader).map_err(|e| DefenderError::Format {
+        path: path.to_owned(),
+        what: format!("array '{name}': bad .npy: {e}"),
+    })?;
     let shape: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
     let order = npy.order();
     let dtype = npy.dtype();
@@ -78,19 +88,31 @@ fn read_npy(reader: impl Read, path: &Path, name: &'static str) -> Result<Array>
         _ => return Err(bad(path, name, "a plain numeric or bool dtype (no records, no objects)", descr)),
     };
     let size = ts.size_field();
-    let data_err =
-        |e: std::io::Error| DefenderError::Format { path: path.to_owned(), what: format!("array '{name}': {e}") };
+    let data_err = |e: std::io::Error| DefenderError::Format {
+        path: path.to_owned(),
+        what: format!("array '{name}': {e}"),
+    };
     let values = match (ts.type_char(), size) {
         (TypeChar::Float, 4) => Values::F32(npy.into_vec::<f32>().map_err(data_err)?),
         (TypeChar::Float, 8) => Values::F64(npy.into_vec::<f64>().map_err(data_err)?),
         (TypeChar::Bool, 1) => Values::Bool(npy.into_vec::<bool>().map_err(data_err)?),
         (TypeChar::Uint, 1) => Values::U8(npy.into_vec::<u8>().map_err(data_err)?),
-        (TypeChar::Int, 1) => Values::Int(npy.into_vec::<i8>().map_err(data_err)?.into_iter().map(i64::from).collect()),
-        (TypeChar::Int, 2) => Values::Int(npy.into_vec::<i16>().map_err(data_err)?.into_iter().map(i64::from).collect()),
-        (TypeChar::Int, 4) => Values::Int(npy.into_vec::<i32>().map_err(data_err)?.into_iter().map(i64::from).collect()),
+        (TypeChar::Int, 1) => {
+            Values::Int(npy.into_vec::<i8>().map_err(data_err)?.into_iter().map(i64::from).collect())
+        }
+        (TypeChar::Int, 2) => {
+            Values::Int(npy.into_vec::<i16>().map_err(data_err)?.into_iter().map(i64::from).collect())
+        }
+        (TypeChar::Int, 4) => {
+            Values::Int(npy.into_vec::<i32>().map_err(data_err)?.into_iter().map(i64::from).collect())
+        }
         (TypeChar::Int, 8) => Values::Int(npy.into_vec::<i64>().map_err(data_err)?),
-        (TypeChar::Uint, 2) => Values::Int(npy.into_vec::<u16>().map_err(data_err)?.into_iter().map(i64::from).collect()),
-        (TypeChar::Uint, 4) => Values::Int(npy.into_vec::<u32>().map_err(data_err)?.into_iter().map(i64::from).collect()),
+        (TypeChar::Uint, 2) => {
+            Values::Int(npy.into_vec::<u16>().map_err(data_err)?.into_iter().map(i64::from).collect())
+        }
+        (TypeChar::Uint, 4) => {
+            Values::Int(npy.into_vec::<u32>().map_err(data_err)?.into_iter().map(i64::from).collect())
+        }
         (TypeChar::Uint, 8) => Values::Int(
             npy.into_vec::<u64>()
                 .map_err(data_err)?
@@ -104,7 +126,12 @@ fn read_npy(reader: impl Read, path: &Path, name: &'static str) -> Result<Array>
     if order == Order::Fortran && array.shape.len() == 2 {
         array.values = transpose(array.values, array.shape[0], array.shape[1]);
     } else if order == Order::Fortran && array.shape.len() > 2 {
-        return Err(bad(path, name, "a C-ordered array (or Fortran-ordered with at most 2 dimensions)", "Fortran order"));
+        return Err(bad(
+            path,
+            name,
+            "a C-ordered array (or Fortran-ordered with at most 2 dimensions)",
+            "Fortran order",
+        ));
     }
     Ok(array)
 }
@@ -146,7 +173,12 @@ impl<W: Write + Seek> NpzWriter<W> {
     }
 
     /// Writes one array of any type npyz serialises with its default dtype (`<f4`, `<i8`, `|b1`, `|u1`).
-    pub fn write<T: npyz::AutoSerialize + Copy>(&mut self, name: &str, shape: &[usize], values: &[T]) -> Result<()> {
+    pub fn write<T: npyz::AutoSerialize + Copy>(
+        &mut self,
+        name: &str,
+        shape: &[usize],
+        values: &[T],
+    ) -> Result<()> {
         let bytes = values.len() as u64 * std::mem::size_of::<T>() as u64;
         let options = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Stored)
@@ -169,6 +201,8 @@ impl<W: Write + Seek> NpzWriter<W> {
     /// Finishes the archive and returns the inner writer.
     pub fn finish(self) -> Result<W> {
         let path = self.path.clone();
-        self.zip.finish().map_err(|e| DefenderError::Format { path, what: format!("finishing the archive: {e}") })
+        self.zip
+            .finish()
+            .map_err(|e| DefenderError::Format { path, what: format!("finishing the archive: {e}") })
     }
 }

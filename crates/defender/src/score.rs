@@ -90,7 +90,9 @@ pub fn rank(mut rows: Vec<AblationRow>) -> Vec<AblationRow> {
 /// # Errors
 /// No task, or tasks whose rows do not cover the same strategies and modes.
 pub fn rank_tasks(tasks: &[Vec<AblationRow>]) -> Result<Vec<AblationRow>> {
-    let first = tasks.first().ok_or_else(|| DefenderError::Config("ranking over tasks needs at least one task".into()))?;
+    let first = tasks
+        .first()
+        .ok_or_else(|| DefenderError::Config("ranking over tasks needs at least one task".into()))?;
     let key = |r: &AblationRow| (r.strategy, r.mode);
     let mut rows: Vec<AblationRow> = first.clone();
     rows.sort_by_key(key);
@@ -158,7 +160,10 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<Vec<AblationRow>> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).map_err(io_at(path))?;
     let mut lines = text.lines();
-    let format = |line: usize, what: String| DefenderError::Format { path: path.to_owned(), what: format!("line {line}: {what}") };
+    let format = |line: usize, what: String| DefenderError::Format {
+        path: path.to_owned(),
+        what: format!("line {line}: {what}"),
+    };
     match lines.next() {
         Some(h) if h.starts_with(CSV_HEADER) => {}
         other => return Err(format(1, format!("expected the header `{CSV_HEADER}`, got {other:?}"))),
@@ -170,10 +175,14 @@ pub fn read_csv(path: impl AsRef<Path>) -> Result<Vec<AblationRow>> {
         if f.len() < 8 {
             return Err(format(n, format!("expected 8 columns, got {}", f.len())));
         }
-        let num = |k: usize| f[k].parse::<f64>().map_err(|e| format(n, format!("column {k} `{}`: {e}", f[k])));
+        let num =
+            |k: usize| f[k].parse::<f64>().map_err(|e| format(n, format!("column {k} `{}`: {e}", f[k])));
         let strategy: Strategy = f[1].parse().map_err(|e| format(n, format!("{e}")))?;
         if f[2] != strategy.safe.to_string() || f[3] != strategy.unsafe_.to_string() {
-            return Err(format(n, format!("safe_method/unsafe_method `{},{}` do not match strategy `{strategy}`", f[2], f[3])));
+            return Err(format(
+                n,
+                format!("safe_method/unsafe_method `{},{}` do not match strategy `{strategy}`", f[2], f[3]),
+            ));
         }
         rows.push(AblationRow {
             rank: f[0].parse().map_err(|e| format(n, format!("rank `{}`: {e}", f[0])))?,
@@ -192,7 +201,14 @@ mod tests {
     use super::*;
 
     fn row(s: &str, score: f64) -> AblationRow {
-        AblationRow { rank: 0, strategy: s.parse().unwrap(), mode: Mode::State, mean_ratio: score, safe_rate: 1.0, score }
+        AblationRow {
+            rank: 0,
+            strategy: s.parse().unwrap(),
+            mode: Mode::State,
+            mean_ratio: score,
+            safe_rate: 1.0,
+            score,
+        }
     }
 
     #[test]
@@ -210,7 +226,11 @@ mod tests {
 
     #[test]
     fn ranking_is_by_score_then_name() {
-        let rows = rank(vec![row("MinBoth/MinBoth", 0.5), row("MaxBoth/MinBoth", 0.9), row("MeanBoth/MinBoth", 0.5)]);
+        let rows = rank(vec![
+            row("MinBoth/MinBoth", 0.5),
+            row("MaxBoth/MinBoth", 0.9),
+            row("MeanBoth/MinBoth", 0.5),
+        ]);
         let names: Vec<String> = rows.iter().map(|r| format!("{} {}", r.rank, r.strategy)).collect();
         assert_eq!(names, ["1 MaxBoth/MinBoth", "2 MeanBoth/MinBoth", "3 MinBoth/MinBoth"]);
     }
@@ -234,7 +254,9 @@ mod tests {
         let rows = rank(vec![row("MeanDemoW5/MeanDemoW10", 0.1 + 0.2), row("MinBoth/MinTrajW10", 1.0 / 3.0)]);
         write_csv(&path, &rows).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.starts_with("rank,strategy,safe_method,unsafe_method,mode,mean_ratio,safe_rate,score\n"));
+        assert!(
+            text.starts_with("rank,strategy,safe_method,unsafe_method,mode,mean_ratio,safe_rate,score\n")
+        );
         assert!(text.contains("\n1,MinBoth/MinTrajW10,MinBoth,MinTrajW10,state,"), "{text}");
         assert_eq!(read_csv(&path).unwrap(), rows);
         std::fs::write(&path, "bad header\n").unwrap();

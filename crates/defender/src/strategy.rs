@@ -45,7 +45,10 @@ impl Strategy {
         if index >= Self::COUNT {
             return None;
         }
-        Some(Strategy::new(Method::from_index(index / Method::COUNT)?, Method::from_index(index % Method::COUNT)?))
+        Some(Strategy::new(
+            Method::from_index(index / Method::COUNT)?,
+            Method::from_index(index % Method::COUNT)?,
+        ))
     }
 
     /// Parses a comma-separated list of strategies (`MinBoth/MinTrajW10,MeanBothW5/MeanBothW5`);
@@ -184,7 +187,15 @@ mod tests {
 
     #[test]
     fn unknown_strategies_are_errors_listing_the_valid_forms() {
-        for bad in ["", "MinBoth", "MinBoth/", "/MinBoth", "MinBoth/MinBoth/MinBoth", "minboth/minboth", "MinBoth-MinBoth"] {
+        for bad in [
+            "",
+            "MinBoth",
+            "MinBoth/",
+            "/MinBoth",
+            "MinBoth/MinBoth/MinBoth",
+            "minboth/minboth",
+            "MinBoth-MinBoth",
+        ] {
             let err = bad.parse::<Strategy>().unwrap_err().to_string();
             assert!(err.contains("unknown strategy") && err.contains("SAFE/UNSAFE"), "{err}");
         }

@@ -2,6 +2,8 @@
 //! (`defender::direct`: every window of every step recomputed from scratch with the textbook DTW),
 //! on small random sets, in both modes, for all 576 strategies.
 
+#![allow(clippy::unwrap_used)] // test and bench helpers fail loudly on purpose
+
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use defender::{Ablation, CostOptions, Demonstrations, EpisodeSet, Filter, Meta, Mode, Strategy, direct};
@@ -12,7 +14,12 @@ use rand_chacha::ChaCha8Rng;
 /// integers k, so every local cost (|3d| in state mode, 5|d| in state-action mode) and every sum
 /// is an exact small integer. The kernels and the direct f64 recursion then agree bit for bit,
 /// and exact ties (which must filter) occur.
-fn integer_set(rng: &mut ChaCha8Rng, episodes: usize, len: std::ops::RangeInclusive<usize>, crash_p: f64) -> EpisodeSet {
+fn integer_set(
+    rng: &mut ChaCha8Rng,
+    episodes: usize,
+    len: std::ops::RangeInclusive<usize>,
+    crash_p: f64,
+) -> EpisodeSet {
     let mut set = EpisodeSet::new(1, 1, Meta::default()).unwrap();
     for _ in 0..episodes {
         let n = rng.random_range(len.clone());
@@ -33,7 +40,12 @@ fn integer_set(rng: &mut ChaCha8Rng, episodes: usize, len: std::ops::RangeInclus
 }
 
 /// Smooth random walks in 3 + 2 dimensions (f32 arithmetic differs from f64 by rounding).
-fn float_set(rng: &mut ChaCha8Rng, episodes: usize, len: std::ops::RangeInclusive<usize>, crash_p: f64) -> EpisodeSet {
+fn float_set(
+    rng: &mut ChaCha8Rng,
+    episodes: usize,
+    len: std::ops::RangeInclusive<usize>,
+    crash_p: f64,
+) -> EpisodeSet {
     let mut set = EpisodeSet::new(3, 2, Meta::default()).unwrap();
     for _ in 0..episodes {
         let n = rng.random_range(len.clone());
@@ -113,7 +125,11 @@ fn ablation_replays_match_the_direct_implementation_on_float_data() {
                     let t = k.unwrap_or(usize::MAX).min(k_direct.unwrap_or(usize::MAX));
                     let d = ds[t];
                     let margin = (d.safe_cost - d.unsafe_cost).abs() / d.safe_cost.abs().max(1e-9);
-                    assert!(margin < 1e-5, "{s} episode {}: ablation k={k:?}, direct k={k_direct:?}, {d:?}", e.index);
+                    assert!(
+                        margin < 1e-5,
+                        "{s} episode {}: ablation k={k:?}, direct k={k_direct:?}, {d:?}",
+                        e.index
+                    );
                     near_ties += 1;
                 }
             }
@@ -124,10 +140,17 @@ fn ablation_replays_match_the_direct_implementation_on_float_data() {
 
 #[test]
 fn the_online_filter_decides_as_the_direct_implementation() {
-    let strategies: Vec<Strategy> = ["MeanDemoW5/MeanDemoW10", "MeanBothW5/MeanBothW5", "MinBoth/MinTrajW10", "MaxEqual/MinEqual", "MinEqual/MeanBothW10", "MeanTrajW5/MaxDemoW5"]
-        .iter()
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let strategies: Vec<Strategy> = [
+        "MeanDemoW5/MeanDemoW10",
+        "MeanBothW5/MeanBothW5",
+        "MinBoth/MinTrajW10",
+        "MaxEqual/MinEqual",
+        "MinEqual/MeanBothW10",
+        "MeanTrajW5/MaxDemoW5",
+    ]
+    .iter()
+    .map(|s| s.parse().unwrap())
+    .collect();
     for mode in Mode::ALL {
         let mut rng = ChaCha8Rng::seed_from_u64(20);
         let demos = demos_with_both_groups(|r| float_set(r, 8, 3..=25, 0.5), &mut rng);
@@ -146,8 +169,16 @@ fn the_online_filter_decides_as_the_direct_implementation() {
                     let dim = prepared.element_dim();
                     let sv = direct::group_value(s.safe, x, &safe, dim);
                     let uv = direct::group_value(s.unsafe_, x, &unsafe_, dim);
-                    assert!((d.safe_cost - sv).abs() <= 1e-5 * sv.abs().max(1.0), "{s} t={t}: {} vs {sv}", d.safe_cost);
-                    assert!((d.unsafe_cost - uv).abs() <= 1e-5 * uv.abs().max(1.0), "{s} t={t}: {} vs {uv}", d.unsafe_cost);
+                    assert!(
+                        (d.safe_cost - sv).abs() <= 1e-5 * sv.abs().max(1.0),
+                        "{s} t={t}: {} vs {sv}",
+                        d.safe_cost
+                    );
+                    assert!(
+                        (d.unsafe_cost - uv).abs() <= 1e-5 * uv.abs().max(1.0),
+                        "{s} t={t}: {} vs {uv}",
+                        d.unsafe_cost
+                    );
                     if (sv - uv).abs() > 1e-4 * sv.abs().max(1.0) {
                         assert_eq!(d.filtered, sv >= uv, "{s} t={t}");
                     }
@@ -162,9 +193,13 @@ fn a_strategy_subset_scores_as_in_the_full_run() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let demos = demos_with_both_groups(|r| integer_set(r, 6, 2..=10, 0.5), &mut rng);
     let episodes = integer_set(&mut rng, 8, 1..=12, 0.5);
-    let subset: Vec<Strategy> = Strategy::parse_list("MinBoth/MinTrajW10,MeanDemoW5/MeanDemoW10,MeanBothW5/MeanBothW5").unwrap();
-    let rows = defender::ablate(&demos, &episodes, Some(&subset), Mode::State, CostOptions::default(), &|_| {}).unwrap();
-    let full = defender::ablate(&demos, &episodes, None, Mode::State, CostOptions::default(), &|_| {}).unwrap();
+    let subset: Vec<Strategy> =
+        Strategy::parse_list("MinBoth/MinTrajW10,MeanDemoW5/MeanDemoW10,MeanBothW5/MeanBothW5").unwrap();
+    let rows =
+        defender::ablate(&demos, &episodes, Some(&subset), Mode::State, CostOptions::default(), &|_| {})
+            .unwrap();
+    let full =
+        defender::ablate(&demos, &episodes, None, Mode::State, CostOptions::default(), &|_| {}).unwrap();
     assert_eq!(rows.len(), 3);
     for r in &rows {
         let f = full.iter().find(|f| f.strategy == r.strategy).unwrap();

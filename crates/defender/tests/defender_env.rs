@@ -1,6 +1,8 @@
 //! `DefenderEnv` wraps environments: a small line world whose every step is visible, and the real
 //! MuJoCo Hopper-v5.
 
+#![allow(clippy::unwrap_used)] // test and bench helpers fail loudly on purpose
+
 use defender::{DefenderConfig, DefenderEnv, EpisodeSet, Meta, Mode};
 use defender_rl::{BoxSpace, Env, Outcome, Step, StepInfo, TimeLimit};
 use rand::{Rng, SeedableRng};
@@ -17,7 +19,12 @@ struct Line {
 
 impl Line {
     fn new() -> Self {
-        Self { obs_space: BoxSpace::unbounded(2), act_space: BoxSpace::new(vec![-1.0], vec![1.0]).unwrap(), x: 0.0, steps: 0 }
+        Self {
+            obs_space: BoxSpace::unbounded(2),
+            act_space: BoxSpace::new(vec![-1.0], vec![1.0]).unwrap(),
+            x: 0.0,
+            steps: 0,
+        }
     }
 }
 
@@ -39,7 +46,13 @@ impl Env for Line {
         self.steps += 1;
         self.x += action[0];
         let terminated = self.x.abs() > 3.0;
-        Ok(Step { obs: vec![self.x, 1.0], reward: 1.0, terminated, truncated: false, info: StepInfo::default() })
+        Ok(Step {
+            obs: vec![self.x, 1.0],
+            reward: 1.0,
+            terminated,
+            truncated: false,
+            info: StepInfo::default(),
+        })
     }
 }
 
@@ -51,7 +64,7 @@ fn line_demos() -> EpisodeSet {
         let xs: Vec<f64> = (0..=10).map(|t| 0.1 * ((t + k) % 3) as f64 - 0.1).collect();
         let obs: Vec<f64> = xs.iter().flat_map(|&x| [x, 1.0]).collect();
         let act: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
-        set.push_episode_f64(&obs, &act, &vec![1.0; 10], false).unwrap();
+        set.push_episode_f64(&obs, &act, &[1.0; 10], false).unwrap();
     }
     for k in 0..3 {
         let xs: Vec<f64> = (0..=4).map(|t| t as f64 * (1.0 + 0.05 * k as f64)).collect();
@@ -73,7 +86,8 @@ fn config(strategy: &str) -> DefenderConfig {
 #[test]
 fn a_filtered_step_never_reaches_the_environment() {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let mut env = DefenderEnv::new(Line::new(), &line_demos(), config("MinBothW5/MinBothW5"), &mut rng).unwrap();
+    let mut env =
+        DefenderEnv::new(Line::new(), &line_demos(), config("MinBothW5/MinBothW5"), &mut rng).unwrap();
     assert_eq!(env.r_task(), -7.0, "default R_task: the lowest reward of the demonstrations");
     assert_eq!(env.id(), "Line-v0");
     assert!(env.step(&[0.0]).is_err(), "step before reset");
@@ -103,7 +117,11 @@ fn a_filtered_step_never_reaches_the_environment() {
     let real = env.inner().steps;
     assert_eq!(real as u64, env.stats().real_steps, "the filtered step did not step the environment");
     assert_eq!(env.stats().steps, env.stats().real_steps + 1);
-    assert_eq!(env.dynamics().real_steps(), env.stats().real_steps, "the model saw every real transition, only those");
+    assert_eq!(
+        env.dynamics().real_steps(),
+        env.stats().real_steps,
+        "the model saw every real transition, only those"
+    );
     assert_eq!(env.last_outcome(), Some(Outcome::Filtered));
     assert!(env.step(&[0.0]).is_err(), "the episode is over");
     let st = env.stats();
@@ -154,7 +172,8 @@ fn demonstrations_must_fit_the_environment() {
     let mut other = EpisodeSet::new(3, 1, Meta::default()).unwrap();
     other.push_episode(&[0.0; 6], &[0.0], &[0.0], false).unwrap();
     other.push_episode(&[0.0; 6], &[0.0], &[0.0], true).unwrap();
-    let err = DefenderEnv::new(Line::new(), &other, config("MinBoth/MinBoth"), &mut rng).unwrap_err().to_string();
+    let err =
+        DefenderEnv::new(Line::new(), &other, config("MinBoth/MinBoth"), &mut rng).unwrap_err().to_string();
     assert!(err.contains("'obs'") && err.contains("Line-v0"), "{err}");
     let mut cfg = config("MinBoth/MinBoth");
     cfg.num_demos = Some(4);
@@ -185,7 +204,8 @@ fn wraps_a_real_mujoco_hopper_and_filters() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut hopper = defender_mujoco::make("Hopper-v5").unwrap();
     let act_dim = hopper.action_space().dim();
-    let mut demos = EpisodeSet::new(11, act_dim, Meta { env_id: Some("Hopper-v5".into()), ..Meta::default() }).unwrap();
+    let mut demos =
+        EpisodeSet::new(11, act_dim, Meta { env_id: Some("Hopper-v5".into()), ..Meta::default() }).unwrap();
     let (mut safe, mut unsafe_) = (0, 0);
     let mut seed = 0;
     while safe < 5 || unsafe_ < 5 {
@@ -195,7 +215,8 @@ fn wraps_a_real_mujoco_hopper_and_filters() {
         let (mut o, mut a, mut r) = (obs.clone(), Vec::new(), Vec::new());
         let mut crashed = false;
         for _ in 0..200 {
-            let act: Vec<f64> = (0..act_dim).map(|_| if random { rng.random_range(-1.0..1.0) } else { 0.0 }).collect();
+            let act: Vec<f64> =
+                (0..act_dim).map(|_| if random { rng.random_range(-1.0..1.0) } else { 0.0 }).collect();
             let s = hopper.step(&act).unwrap();
             a.extend_from_slice(&act);
             r.push(s.reward);
@@ -218,9 +239,11 @@ fn wraps_a_real_mujoco_hopper_and_filters() {
             safe += 1;
         }
     }
-    let mut cfg = DefenderConfig { strategy: "MeanBothW5/MeanBothW5".parse().unwrap(), ..DefenderConfig::default() };
+    let mut cfg =
+        DefenderConfig { strategy: "MeanBothW5/MeanBothW5".parse().unwrap(), ..DefenderConfig::default() };
     cfg.dynamics.buffer_size = 10_000;
-    let mut env = DefenderEnv::new(defender_mujoco::make("Hopper-v5").unwrap(), &demos, cfg, &mut rng).unwrap();
+    let mut env =
+        DefenderEnv::new(defender_mujoco::make("Hopper-v5").unwrap(), &demos, cfg, &mut rng).unwrap();
     for ep in 0..10 {
         env.reset(Some(1000 + ep)).unwrap();
         loop {

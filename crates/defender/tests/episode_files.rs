@@ -1,6 +1,8 @@
 //! Episode-set files (SPEC section 8) against real numpy: numpy loads what we write, we load what
 //! numpy writes, and every kind of invalid file is refused with an error naming file, array and rule.
 
+#![allow(clippy::unwrap_used)] // test and bench helpers fail loudly on purpose
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -28,8 +30,13 @@ fn demo_set() -> EpisodeSet {
     let meta = Meta { env_id: Some("Hopper-v5".into()), provenance: Some("test".into()), ..Meta::default() };
     let mut set = EpisodeSet::new(3, 2, meta).unwrap();
     // Episode 0: 2 transitions, safe; episode 1: 1 transition, crashed.
-    set.push_episode(&[0.5, 1.0, -1.5, 2.0, 2.5, 3.0, 4.0, 4.5, 5.25], &[0.1, 0.2, 0.3, 0.4], &[1.0, -2.5], false)
-        .unwrap();
+    set.push_episode(
+        &[0.5, 1.0, -1.5, 2.0, 2.5, 3.0, 4.0, 4.5, 5.25],
+        &[0.1, 0.2, 0.3, 0.4],
+        &[1.0, -2.5],
+        false,
+    )
+    .unwrap();
     set.push_episode(&[9.0, 8.0, 7.0, 6.0, 5.0, 4.0], &[-1.0, 1.0], &[0.75], true).unwrap();
     set
 }
@@ -108,12 +115,20 @@ const INVALID: &[(&str, &str, &[&str])] = &[
     ("obs_1d", "obs=np.zeros(15)", &["'obs'", "2-D"]),
     ("act_rows", "act=np.zeros((4, 2))", &["'act'", "3 rows", "sum(N_i)"]),
     ("rew_len", "rew=np.zeros(2)", &["'rew'", "shape [3]"]),
-    ("obs_nan", "obs=np.where(np.arange(15).reshape(5,3)==7, np.nan, 1.0)", &["'obs'", "finite", "NaN", "index 7"]),
+    (
+        "obs_nan",
+        "obs=np.where(np.arange(15).reshape(5,3)==7, np.nan, 1.0)",
+        &["'obs'", "finite", "NaN", "index 7"],
+    ),
     ("act_inf", "act=np.full((3,2), np.inf)", &["'act'", "finite"]),
     ("rew_int", "rew=np.array([1, 2, 3])", &["'rew'", "float32"]),
     ("ep_len_zero", "ep_len=np.array([3, 0]), crashed=np.array([False, True])", &["'ep_len'", "N_i >= 1"]),
     ("ep_len_float", "ep_len=np.array([2.0, 1.0])", &["'ep_len'", "int64"]),
-    ("empty", "obs=np.zeros((0,3)), act=np.zeros((0,2)), rew=np.zeros(0), ep_len=np.zeros(0, dtype=np.int64), crashed=np.zeros(0, dtype=bool)", &["'ep_len'", "at least one episode"]),
+    (
+        "empty",
+        "obs=np.zeros((0,3)), act=np.zeros((0,2)), rew=np.zeros(0), ep_len=np.zeros(0, dtype=np.int64), crashed=np.zeros(0, dtype=bool)",
+        &["'ep_len'", "at least one episode"],
+    ),
     ("crashed_len", "crashed=np.array([True])", &["'crashed'", "shape [2]"]),
     ("crashed_int", "crashed=np.array([0, 1])", &["'crashed'", "bool"]),
     ("meta_dims", "meta=np.frombuffer(b'{\"obs_dim\": 4}', dtype=np.uint8)", &["'meta'", "obs_dim = 3"]),
@@ -177,8 +192,10 @@ fn saving_is_atomic() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("demos.npz");
     demo_set().save(&path).unwrap();
-    let names: Vec<String> =
-        std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     assert_eq!(names, ["demos.npz"], "no temporary file is left behind");
     // Saving into a missing directory fails cleanly and names the path.
     let err = demo_set().save(dir.path().join("no/such/dir.npz")).unwrap_err().to_string();
