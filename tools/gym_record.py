@@ -19,8 +19,8 @@ Output, in crates/defender-mujoco/tests/data/:
                       case{i}_obs [T'+1, obs_dim], case{i}_rew [T'], case{i}_terminated [T'] (bool),
                       with T' <= T the number of steps up to and including the first termination;
                       plus `cases` (the count). Cases are initial states (Gymnasium's reset for
-                      seeds 0 and 1, then a strongly perturbed one) times action patterns (zeros,
-                      sine, uniform, large, max), in that order: case 3 is reset0/large.
+                      seeds 0 and 1, a strongly perturbed one, a fast one) times action patterns
+                      (zeros, sine, uniform, large, max), in that order: case 3 is reset0/large.
   cli_hopper_{qpos,qvel,actions}.npy and cli_hopper_expected.npz: one Hopper case as separate
                       .npy files, as numpy writes them, for the `defender env replay` end-to-end test.
 
@@ -60,7 +60,7 @@ def action_patterns(nu: int, steps: int, rng: np.random.Generator) -> dict[str, 
 
 
 def initial_states(env, rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Gymnasium's own reset states for seeds 0 and 1, and one state perturbed more strongly."""
+    """Gymnasium's own reset states for seeds 0 and 1, one perturbed more strongly, one fast."""
     u = env.unwrapped
     states = {}
     for seed in (0, 1):
@@ -69,7 +69,19 @@ def initial_states(env, rng: np.random.Generator) -> dict[str, tuple[np.ndarray,
     qpos = u.init_qpos + rng.uniform(-0.05, 0.05, size=u.model.nq)
     qvel = u.init_qvel + rng.uniform(-0.5, 0.5, size=u.model.nv)
     states["perturbed"] = (qpos, qvel)
+    # Fast joints (observed velocities beyond the +-10 clip); the pendulum's cart starts near the
+    # end of its rail (range [-1, 1]) moving towards it, so that the joint limit's constraint force
+    # (observed, clipped to +-10) is exercised.
+    qpos = u.init_qpos + rng.uniform(-0.05, 0.05, size=u.model.nq)
+    qvel = u.init_qvel + rng.uniform(-15.0, 15.0, size=u.model.nv)
+    if env_id_of(env) == "InvertedDoublePendulum-v5":
+        qpos[0], qvel[0] = 0.95, 3.0
+    states["fast"] = (qpos, qvel)
     return states
+
+
+def env_id_of(env) -> str:
+    return env.spec.id
 
 
 def rollout(env, qpos: np.ndarray, qvel: np.ndarray, actions: np.ndarray):

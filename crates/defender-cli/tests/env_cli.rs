@@ -1,6 +1,8 @@
 //! End-to-end: the built `defender` binary's `env list` and `env replay`, on a Gymnasium
 //! recording made by `tools/gym_record.py` (arrays written by numpy's `np.save`).
 
+#![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -35,14 +37,17 @@ fn list_shows_the_three_tasks() {
     for id in ["Hopper-v5", "Walker2d-v5", "InvertedDoublePendulum-v5"] {
         assert!(text.contains(id), "{text}");
     }
-    assert!(text.lines().any(|l| l.split_whitespace().collect::<Vec<_>>() == ["Walker2d-v5", "17", "6", "1000"]));
+    assert!(
+        text.lines().any(|l| l.split_whitespace().collect::<Vec<_>>() == ["Walker2d-v5", "17", "6", "1000"])
+    );
 }
 
 #[test]
 fn replay_reproduces_the_gymnasium_recording() {
     let dir = scratch("replay");
     let out = dir.join("out.npz");
-    let (q, v, a) = (data("cli_hopper_qpos.npy"), data("cli_hopper_qvel.npy"), data("cli_hopper_actions.npy"));
+    let (q, v, a) =
+        (data("cli_hopper_qpos.npy"), data("cli_hopper_qvel.npy"), data("cli_hopper_actions.npy"));
     let args = [
         "env",
         "replay",
@@ -117,11 +122,25 @@ fn replay_names_the_bad_file_and_what_was_expected() {
     std::fs::write(&text, "hello").unwrap();
     let err = String::from_utf8(run(&text, &data("cli_hopper_actions.npy")).stderr).unwrap();
     assert!(err.contains("notes.npy") && err.contains("not a readable .npy"), "{err}");
-    let err = String::from_utf8(run(&dir.join("missing.npy"), &data("cli_hopper_actions.npy")).stderr).unwrap();
+    let err =
+        String::from_utf8(run(&dir.join("missing.npy"), &data("cli_hopper_actions.npy")).stderr).unwrap();
     assert!(err.contains("missing.npy") && err.contains("cannot open"), "{err}");
 
     // Unknown task id.
-    let result = defender(&["env", "replay", "--env", "Ant-v5", "--qpos", "q", "--qvel", "v", "--actions", "a", "--out", "o"]);
+    let result = defender(&[
+        "env",
+        "replay",
+        "--env",
+        "Ant-v5",
+        "--qpos",
+        "q",
+        "--qvel",
+        "v",
+        "--actions",
+        "a",
+        "--out",
+        "o",
+    ]);
     let err = String::from_utf8(result.stderr).unwrap();
     assert!(!result.status.success() && err.contains("Ant-v5") && err.contains("Hopper-v5"), "{err}");
 

@@ -91,7 +91,8 @@ impl MujocoEnv {
         let data = MjData::try_new(Box::new(model))
             .map_err(|e| EnvError::Simulator(format!("{}: allocating MuJoCo data: {e}", spec.id)))?;
         let model = data.model();
-        let (low, high): (Vec<f64>, Vec<f64>) = model.actuator_ctrlrange().iter().map(|r| (r[0], r[1])).unzip();
+        let (low, high): (Vec<f64>, Vec<f64>) =
+            model.actuator_ctrlrange().iter().map(|r| (r[0], r[1])).unzip();
         if low.len() != spec.act_dim {
             return Err(EnvError::Simulator(format!(
                 "{}: the model has {} actuators, expected {}",
@@ -242,7 +243,13 @@ impl MujocoEnv {
         );
         self.needs_reset = true;
         let obs = self.observation().into_iter().map(|v| if v.is_finite() { v } else { 0.0 }).collect();
-        Step { obs, reward: 0.0, terminated: true, truncated: false, info: StepInfo { unstable: true, filtered: false } }
+        Step {
+            obs,
+            reward: 0.0,
+            terminated: true,
+            truncated: false,
+            info: StepInfo { unstable: true, filtered: false },
+        }
     }
 }
 

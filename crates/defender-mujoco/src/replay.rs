@@ -44,7 +44,7 @@ impl Rollout {
 /// value in any of them (nothing is stepped then).
 pub fn replay(env: &mut MujocoEnv, qpos: &[f64], qvel: &[f64], actions: &[f64]) -> Result<Rollout> {
     let act_dim = env.action_space().dim();
-    if actions.len() % act_dim != 0 {
+    if !actions.len().is_multiple_of(act_dim) {
         return Err(EnvError::LengthMismatch {
             name: format!("actions (row-major [T, {act_dim}])"),
             expected: actions.len().div_ceil(act_dim) * act_dim,

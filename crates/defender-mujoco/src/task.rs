@@ -123,6 +123,8 @@ mod tests {
             assert_eq!(spec.task.spec(), spec);
         }
         let err = Task::from_id("hopper-v5").unwrap_err().to_string();
-        assert!(err.contains("hopper-v5") && err.contains("Hopper-v5, Walker2d-v5, InvertedDoublePendulum-v5"));
+        assert!(
+            err.contains("hopper-v5") && err.contains("Hopper-v5, Walker2d-v5, InvertedDoublePendulum-v5")
+        );
     }
 }

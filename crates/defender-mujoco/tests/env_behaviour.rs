@@ -1,5 +1,7 @@
 //! Behaviour beyond parity: bad input, instability, reset distributions, the registry.
 
+#![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
+
 use std::sync::{Arc, Mutex};
 
 use defender_mujoco::{EnvError, MujocoEnv, Task, make, registry, replay};

@@ -4,6 +4,8 @@
 //!
 //! Regenerate the data: `.deps/tools-venv/bin/python tools/gym_record.py`.
 
+#![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
+
 use std::path::Path;
 
 use defender_mujoco::{MujocoEnv, Task, replay};
@@ -20,7 +22,10 @@ struct Case {
     terminated: Vec<bool>,
 }
 
-fn array<T: npyz::Deserialize>(npz: &mut npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>, name: &str) -> (Vec<T>, Vec<u64>) {
+fn array<T: npyz::Deserialize>(
+    npz: &mut npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>,
+    name: &str,
+) -> (Vec<T>, Vec<u64>) {
     let arr = npz.by_name(name).unwrap().unwrap_or_else(|| panic!("missing array {name}"));
     let shape = arr.shape().to_vec();
     (arr.into_vec().unwrap(), shape)

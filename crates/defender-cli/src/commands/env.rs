@@ -73,7 +73,9 @@ fn list_table() -> String {
     let header = ["id", "obs_dim", "act_dim", "horizon"];
     let rows: Vec<[String; 4]> = registry()
         .iter()
-        .map(|s| [s.id.to_string(), s.obs_dim.to_string(), s.act_dim.to_string(), s.max_episode_steps.to_string()])
+        .map(|s| {
+            [s.id.to_string(), s.obs_dim.to_string(), s.act_dim.to_string(), s.max_episode_steps.to_string()]
+        })
         .collect();
     let width = |c: usize| rows.iter().map(|r| r[c].len()).chain([header[c].len()]).max().unwrap_or(0);
     let widths = [width(0), width(1), width(2), width(3)];
@@ -104,8 +106,11 @@ fn run_replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let id = env.id().to_owned();
     let qpos = read_f64_npy(&args.qpos, &[Some(nq)], &format!("{id} qpos [nq = {nq}]"))?;
     let qvel = read_f64_npy(&args.qvel, &[Some(nv)], &format!("{id} qvel [nv = {nv}]"))?;
-    let actions =
-        read_f64_npy(&args.actions, &[None, Some(act_dim)], &format!("{id} actions [T, act_dim = {act_dim}]"))?;
+    let actions = read_f64_npy(
+        &args.actions,
+        &[None, Some(act_dim)],
+        &format!("{id} actions [T, act_dim = {act_dim}]"),
+    )?;
     let rollout = replay(&mut env, &qpos, &qvel, &actions)
         .with_context(|| format!("replaying {} on {id}", args.actions.display()))?;
     write_rollout(&args.out, &rollout).with_context(|| format!("writing {}", args.out.display()))?;
@@ -130,7 +135,8 @@ fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Res
         let dims: Vec<String> = shape.iter().map(|d| d.map_or("T".into(), |n| n.to_string())).collect();
         format!("a float64 .npy of shape [{}] ({what})", dims.join(", "))
     };
-    let file = File::open(path).with_context(|| format!("{}: cannot open (expected {})", path.display(), expected()))?;
+    let file = File::open(path)
+        .with_context(|| format!("{}: cannot open (expected {})", path.display(), expected()))?;
     let npy = npyz::NpyFile::new(BufReader::new(file))
         .with_context(|| format!("{}: not a readable .npy file (expected {})", path.display(), expected()))?;
     let dtype = npy.dtype();
@@ -139,14 +145,16 @@ fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Res
         bail!("{}: dtype {} (expected {})", path.display(), dtype.descr(), expected());
     }
     let got: Vec<u64> = npy.shape().to_vec();
-    let fits = got.len() == shape.len() && got.iter().zip(shape).all(|(&g, &e)| e.is_none_or(|e| g == e as u64));
+    let fits =
+        got.len() == shape.len() && got.iter().zip(shape).all(|(&g, &e)| e.is_none_or(|e| g == e as u64));
     if !fits {
         bail!("{}: shape {:?} (expected {})", path.display(), got, expected());
     }
     if got.len() > 1 && npy.order() == npyz::Order::Fortran {
         bail!("{}: Fortran-ordered array (expected C order: {})", path.display(), expected());
     }
-    npy.into_vec::<f64>().with_context(|| format!("{}: reading the data (expected {})", path.display(), expected()))
+    npy.into_vec::<f64>()
+        .with_context(|| format!("{}: reading the data (expected {})", path.display(), expected()))
 }
 
 /// Writes obs/rew/terminated to `out` atomically: a temporary file in the same folder, then rename.
@@ -180,7 +188,8 @@ fn write_npz(path: &Path, rollout: &Rollout) -> anyhow::Result<()> {
     let mut rew = npz.array::<f64>("rew", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
     rew.extend(rollout.rewards.iter().copied())?;
     rew.finish()?;
-    let mut term = npz.array::<bool>("terminated", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
+    let mut term =
+        npz.array::<bool>("terminated", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
     term.extend(rollout.terminated.iter().copied())?;
     term.finish()?;
     let mut writer = npz.zip_writer().finish()?;
