@@ -236,3 +236,15 @@ fn replay_rejects_malformed_actions() {
     let ok = replay(&mut env, &qpos, &[0.0; 6], &[]).unwrap();
     assert_eq!((ok.steps(), ok.obs.len()), (0, 11));
 }
+
+#[test]
+fn environments_can_move_to_other_threads() {
+    fn assert_send<T: Send + 'static>(_: &T) {}
+    let env = make("Hopper-v5").unwrap();
+    assert_send(&env);
+    let handle = std::thread::spawn(move || {
+        let mut env = env;
+        env.reset(Some(0)).unwrap().len()
+    });
+    assert_eq!(handle.join().unwrap(), 11);
+}
