@@ -9,7 +9,7 @@ PY=${PYTHON:-python3}
 VENV=.deps/tools-venv
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
 PIP=("$VENV/bin/python" -m pip install --quiet --disable-pip-version-check)
-"${PIP[@]}" "numpy>=1.26,<3" "mujoco==3.17.0" "gymnasium==1.4.0" dtw-python dtaidistance
+"${PIP[@]}" "numpy>=1.26,<3" "mujoco==3.17.0" "gymnasium[mujoco]==1.4.0" dtw-python dtaidistance
 if [ "${WITH_TORCH:-1}" = 1 ]; then
   "${PIP[@]}" torch stable-baselines3
 fi
