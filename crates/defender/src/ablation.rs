@@ -229,11 +229,10 @@ pub fn ablate(
     options: crate::demonstrations::CostOptions,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Vec<AblationRow>> {
-    episodes.check_env(
-        demos.meta().env_id.as_deref().unwrap_or(episodes.meta().env_id.as_deref().unwrap_or("")),
-        demos.obs_dim(),
-        demos.act_dim(),
-    )?;
+    // The recorded episodes must come from the demonstrations' environment.
+    let env_id =
+        demos.meta().env_id.as_deref().or(episodes.meta().env_id.as_deref()).unwrap_or("the demonstrations");
+    episodes.check_env(env_id, demos.obs_dim(), demos.act_dim())?;
     let prepared = Demonstrations::new(demos, mode, options)?;
     let all: Vec<Strategy>;
     let list = match strategies {
