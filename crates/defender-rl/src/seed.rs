@@ -12,6 +12,10 @@ pub enum SeedPurpose {
     TrainEpisode,
     /// The reset of evaluation episode `index` (counted over all evaluations of the run).
     EvalEpisode,
+    /// An environment wrapper's own model (DEFENDER's dynamics model: weights and sampling).
+    Wrapper,
+    /// Episodes run outside training, e.g. the demonstration of the policy after episode `index`.
+    Demonstration,
 }
 
 /// SplitMix64's finaliser: a bijection that scatters nearby inputs.
@@ -30,6 +34,8 @@ pub fn derive_seed(seed: u64, purpose: SeedPurpose, index: u64) -> u64 {
         SeedPurpose::Agent => 2,
         SeedPurpose::TrainEpisode => 3,
         SeedPurpose::EvalEpisode => 4,
+        SeedPurpose::Wrapper => 5,
+        SeedPurpose::Demonstration => 6,
     };
     mix(mix(mix(seed) ^ p) ^ index)
 }

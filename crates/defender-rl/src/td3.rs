@@ -336,3 +336,53 @@ impl Agent for Td3 {
         Ok(self.actor.save_safetensors(path)?)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn filled(terminated: bool) -> Td3 {
+        let config =
+            Td3Config { net_arch: vec![8], batch_size: 16, learning_starts: 0, ..Td3Config::default() };
+        let mut td3 = Td3::new(config, 2, 1, 0).unwrap();
+        for i in 0..20 {
+            let x = f64::from(i) / 20.0;
+            let t = Transition {
+                obs: &[x, -x],
+                action: &[0.5],
+                reward: x,
+                next_obs: &[x, x],
+                terminated,
+                truncated: !terminated,
+            };
+            td3.observe(&t).unwrap();
+        }
+        td3
+    }
+
+    #[test]
+    fn terminated_transitions_do_not_bootstrap_and_truncated_ones_do() {
+        let mut td3 = filled(true);
+        td3.gradient_step().unwrap();
+        assert_eq!(td3.ws.target, td3.ws.batch.rewards, "terminated: y = r");
+        let mut td3 = filled(false);
+        td3.gradient_step().unwrap();
+        assert!(
+            td3.ws.target.iter().zip(&td3.ws.batch.rewards).all(|(y, r)| y != r),
+            "truncated: y = r + gamma Q"
+        );
+    }
+
+    #[test]
+    fn the_actor_and_targets_move_every_policy_delay_updates() {
+        let mut td3 = filled(false);
+        let actor0 = td3.actor.params().to_vec();
+        let target0 = td3.q1_target.params().to_vec();
+        assert!(td3.gradient_step().unwrap().actor_loss.is_none());
+        assert_eq!(td3.actor.params(), &actor0[..]);
+        assert_eq!(td3.q1_target.params(), &target0[..]);
+        assert!(td3.gradient_step().unwrap().actor_loss.is_some());
+        assert_ne!(td3.actor.params(), &actor0[..]);
+        assert_ne!(td3.q1_target.params(), &target0[..]);
+    }
+}

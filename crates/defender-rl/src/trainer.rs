@@ -174,6 +174,22 @@ pub trait Hooks {
         let _ = total_steps;
     }
 
+    /// After every environment step, with the transition as the agent stored it and the action
+    /// as the environment received it (rescaled to its bounds): for recording episodes.
+    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64]) {
+        let _ = (transition, env_action);
+    }
+
+    /// After each finished training episode and its record, with the agent: for work that needs
+    /// the current policy, such as recording a demonstration of it (`defender demos collect`).
+    ///
+    /// # Errors
+    /// Stops training with [`RlError::Hook`].
+    fn after_episode(&mut self, record: &EpisodeRecord, agent: &mut dyn Agent) -> Result<(), HookError> {
+        let _ = (record, agent);
+        Ok(())
+    }
+
     /// After a training phase that ran gradient steps.
     fn on_update(&mut self, total_steps: u64, stats: &UpdateStats) {
         let _ = (total_steps, stats);
@@ -434,14 +450,16 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 let step = self.env.step(&env_action)?;
                 self.state.total_steps += 1;
                 // The agent stores the normalised action; `terminated` and `truncated` stay apart.
-                self.agent.observe(&Transition {
+                let transition = Transition {
                     obs: &obs,
                     action: &action,
                     reward: step.reward,
                     next_obs: &step.obs,
                     terminated: step.terminated,
                     truncated: step.truncated,
-                })?;
+                };
+                self.agent.observe(&transition)?;
+                hooks.on_transition(&transition, &env_action);
                 if let Some(stats) = self.agent.update()? {
                     hooks.on_update(self.state.total_steps, &stats);
                 }
@@ -468,6 +486,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                         wall_seconds: wall(&started),
                     };
                     hooks.on_episode_end(&record).map_err(hook_err("on_episode_end"))?;
+                    hooks.after_episode(&record, &mut self.agent).map_err(hook_err("after_episode"))?;
                     self.state.episodes.push(record);
                     break;
                 }

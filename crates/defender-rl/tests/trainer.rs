@@ -1,0 +1,134 @@
+//! The trainer's bookkeeping: outcomes, budgets, evaluation, environment state in checkpoints.
+
+use std::path::Path;
+
+use defender_rl::classic::Pendulum;
+use defender_rl::{
+    AlgoConfig, BoxSpace, Budget, Env, EnvError, NoHooks, Outcome, RunEnd, SacConfig, Step, Trainer,
+    TrainerConfig,
+};
+
+/// Pendulum whose every third episode is "filtered" at step 5 and every other third "crashes"
+/// at step 7 (terminated by the environment), like a DEFENDER wrapper over a task that falls.
+/// Counts its episodes, and keeps that count in checkpoints.
+struct Scripted {
+    inner: Pendulum,
+    t: usize,
+    episodes: u64,
+}
+
+impl Env for Scripted {
+    fn id(&self) -> &str {
+        "Scripted"
+    }
+    fn observation_space(&self) -> &BoxSpace {
+        self.inner.observation_space()
+    }
+    fn action_space(&self) -> &BoxSpace {
+        self.inner.action_space()
+    }
+    fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
+        self.t = 0;
+        self.episodes += 1;
+        self.inner.reset(seed)
+    }
+    fn step(&mut self, action: &[f64]) -> defender_rl::Result<Step> {
+        let mut step = self.inner.step(action)?;
+        self.t += 1;
+        match (self.episodes % 3, self.t) {
+            (1, 5) => {
+                step.terminated = true;
+                step.info.filtered = true;
+                step.reward = -100.0;
+            }
+            (2, 7) => step.terminated = true,
+            _ => {}
+        }
+        Ok(step)
+    }
+    fn save_state(&self, dir: &Path) -> defender_rl::Result<()> {
+        std::fs::write(dir.join("episodes"), self.episodes.to_string())
+            .map_err(|e| EnvError::State { path: dir.into(), reason: e.to_string() })
+    }
+    fn load_state(&mut self, dir: &Path) -> defender_rl::Result<()> {
+        let text = std::fs::read_to_string(dir.join("episodes"))
+            .map_err(|e| EnvError::State { path: dir.into(), reason: e.to_string() })?;
+        self.episodes = text.parse().map_err(|_| EnvError::State { path: dir.into(), reason: text })?;
+        Ok(())
+    }
+}
+
+fn small_sac() -> AlgoConfig {
+    AlgoConfig::Sac(SacConfig {
+        net_arch: vec![16],
+        batch_size: 16,
+        learning_starts: 50,
+        ..SacConfig::default()
+    })
+}
+
+#[test]
+fn records_outcomes_lengths_and_returns() {
+    let env = Scripted { inner: Pendulum::new(), t: 0, episodes: 0 };
+    let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Episodes(6)) };
+    let mut trainer =
+        Trainer::new(small_sac().build(3, 1, 0).unwrap(), env, Pendulum::new(), config).unwrap();
+    let RunEnd::Complete(eval) = trainer.run(&mut NoHooks).unwrap() else { panic!("stopped") };
+    let outcomes: Vec<Outcome> = trainer.episodes().iter().map(|e| e.outcome()).collect();
+    use Outcome::*;
+    assert_eq!(outcomes, [Filtered, Crashed, Truncated, Filtered, Crashed, Truncated]);
+    let lengths: Vec<u64> = trainer.episodes().iter().map(|e| e.length).collect();
+    assert_eq!(lengths, [5, 7, 200, 5, 7, 200]);
+    let mut steps = 0;
+    for e in trainer.episodes() {
+        steps += e.length;
+        assert_eq!(e.total_steps, steps);
+        assert!(e.wall_seconds >= 0.0);
+    }
+    assert_eq!(trainer.total_steps(), 424);
+    assert!(trainer.episodes()[0].episode_return < -100.0);
+    // The evaluation env is the plain task: full 200-step episodes.
+    assert_eq!((eval.episodes, eval.mean_length, eval.is_final), (1, 200.0, true));
+}
+
+#[test]
+fn a_step_budget_stops_mid_episode_without_recording_it() {
+    let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Steps(450)) };
+    let mut trainer =
+        Trainer::new(small_sac().build(3, 1, 0).unwrap(), Pendulum::new(), Pendulum::new(), config).unwrap();
+    trainer.run(&mut NoHooks).unwrap();
+    assert_eq!(trainer.total_steps(), 450);
+    assert_eq!(trainer.episodes().len(), 2);
+    assert_eq!(trainer.agent().num_timesteps(), 450);
+}
+
+#[test]
+fn the_env_state_goes_into_the_checkpoint_and_comes_back() {
+    let root = tempfile::tempdir().unwrap();
+    let ckpt = root.path().join("checkpoint");
+    let env = Scripted { inner: Pendulum::new(), t: 0, episodes: 0 };
+    let config = TrainerConfig {
+        checkpoint_every_episodes: 2,
+        final_eval_episodes: 1,
+        ..TrainerConfig::new(0, Budget::Episodes(4))
+    };
+    let mut trainer = Trainer::new(small_sac().build(3, 1, 0).unwrap(), env, Pendulum::new(), config)
+        .unwrap()
+        .with_checkpoint_dir(&ckpt);
+    trainer.run(&mut NoHooks).unwrap();
+    assert_eq!(std::fs::read_to_string(ckpt.join("env/episodes")).unwrap(), "4");
+    let env = Scripted { inner: Pendulum::new(), t: 0, episodes: 0 };
+    let config = TrainerConfig::new(0, Budget::Episodes(4));
+    let mut again = Trainer::new(small_sac().build(3, 1, 0).unwrap(), env, Pendulum::new(), config).unwrap();
+    again.resume(&ckpt, &mut NoHooks).unwrap();
+    assert_eq!(again.env().episodes, 4);
+    assert!(again.is_complete());
+    assert_eq!(again.episodes(), trainer.episodes());
+}
+
+#[test]
+fn refuses_environments_that_do_not_fit_the_agent() {
+    let agent = small_sac().build(4, 1, 0).unwrap();
+    let config = TrainerConfig::new(0, Budget::Steps(10));
+    assert!(Trainer::new(agent, Pendulum::new(), Pendulum::new(), config).is_err());
+}
