@@ -57,6 +57,19 @@ impl AlgoConfig {
         }
     }
 
+    /// Reads the hyperparameters of `algo` from any serde source, e.g. the `[algo_config]`
+    /// table of a TOML file as a `toml::Value` (missing keys take their defaults; unknown keys are
+    /// refused, naming the key).
+    ///
+    /// # Errors
+    /// The deserializer's error.
+    pub fn deserialize_for<'de, D: serde::Deserializer<'de>>(algo: Algo, de: D) -> Result<Self, D::Error> {
+        Ok(match algo {
+            Algo::Sac => Self::Sac(SacConfig::deserialize(de)?),
+            Algo::Td3 => Self::Td3(Td3Config::deserialize(de)?),
+        })
+    }
+
     /// Which algorithm.
     pub fn algo(&self) -> Algo {
         match self {
@@ -85,5 +98,23 @@ impl Serialize for AlgoConfig {
             Self::Sac(c) => c.serialize(s),
             Self::Td3(c) => c.serialize(s),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_algo_config_table_of_the_chosen_algorithm() {
+        let doc: toml::Table = toml::from_str("algo = \"td3\"\n[algo_config]\npolicy_delay = 3\n").unwrap();
+        let algo: Algo = doc["algo"].as_str().unwrap().parse().unwrap();
+        let config = AlgoConfig::deserialize_for(algo, doc["algo_config"].clone()).unwrap();
+        assert_eq!(config, AlgoConfig::Td3(Td3Config { policy_delay: 3, ..Td3Config::default() }));
+        let err = AlgoConfig::deserialize_for(Algo::Sac, doc["algo_config"].clone()).unwrap_err();
+        assert!(err.to_string().contains("policy_delay"), "{err}");
+        let written = toml::to_string(&config).unwrap();
+        assert!(written.contains("policy_delay = 3"), "{written}");
+        assert!("ppo".parse::<Algo>().is_err());
     }
 }
