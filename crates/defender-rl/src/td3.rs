@@ -16,7 +16,7 @@
 
 use std::path::Path;
 
-use defender_nn::{Activation, Adam, AdamConfig, Mlp};
+use defender_nn::{Activation, Adam, AdamConfig, Mlp, Parallelism};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -136,6 +136,18 @@ impl Td3 {
     /// The hyperparameters.
     pub fn config(&self) -> &Td3Config {
         &self.config
+    }
+
+    /// How many threads the networks' matrix products use (defender-nn's default is
+    /// `min(2, cores)`, or `DEFENDER_NN_THREADS`). Results are bit-identical for every setting;
+    /// use [`Parallelism::Sequential`] to run one training per core.
+    pub fn set_parallelism(&mut self, parallelism: Parallelism) {
+        self.actor.set_parallelism(parallelism);
+        self.actor_target.set_parallelism(parallelism);
+        self.q1.set_parallelism(parallelism);
+        self.q2.set_parallelism(parallelism);
+        self.q1_target.set_parallelism(parallelism);
+        self.q2_target.set_parallelism(parallelism);
     }
 
     /// The replay buffer.
