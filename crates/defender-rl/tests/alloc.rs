@@ -34,7 +34,7 @@ fn cycle(agent: &mut dyn Agent, steps: usize) -> u64 {
     let mut action = [0.0f32; 2];
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     for i in 0..steps {
-        agent.act(&obs, false, &mut action).unwrap();
+        agent.act(&obs, false, &mut action).expect("act");
         let t = Transition {
             obs: &obs,
             action: &action,
@@ -43,9 +43,9 @@ fn cycle(agent: &mut dyn Agent, steps: usize) -> u64 {
             terminated: i % 7 == 0,
             truncated: false,
         };
-        agent.observe(&t).unwrap();
-        agent.update().unwrap();
-        agent.act(&obs, true, &mut action).unwrap();
+        agent.observe(&t).expect("observe");
+        agent.update().expect("update");
+        agent.act(&obs, true, &mut action).expect("act");
     }
     ALLOCATIONS.load(Ordering::Relaxed) - before
 }
