@@ -2,6 +2,9 @@
 //! rank the 576 filtering strategies offline, report the paper's tables and plots, and measure.
 
 mod commands;
+mod progress;
+mod run_dir;
+mod setup;
 
 use clap::{Parser, Subcommand};
 
@@ -18,6 +21,11 @@ enum Command {
     /// The MuJoCo tasks: list them, replay recorded actions from a given state.
     #[command(subcommand)]
     Env(commands::env::EnvCommand),
+    /// Demonstrations: collect safe and unsafe ones by training SAC, as in the paper.
+    #[command(subcommand)]
+    Demos(commands::demos::DemosCommand),
+    /// Train SAC or TD3 on a task, bare or with DEFENDER, into a run directory.
+    Train(Box<commands::train::TrainArgs>),
     /// The paper's tables (Markdown, LaTeX, CSV) and learning-curve plots from run directories.
     Report(commands::report::ReportArgs),
 }
@@ -27,6 +35,8 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
         Command::Report(args) => commands::report::run(args),
+        Command::Train(args) => commands::train::run(*args),
+        Command::Demos(cmd) => commands::demos::run(cmd),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,6 +1,8 @@
 //! `DefenderEnv`: DEFENDER as an environment wrapper (the paper's Algorithm 1, SPEC sections 4-6).
 //! Any agent trains on it unchanged: it sees an [`Env`].
 
+use std::path::{Path, PathBuf};
+
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -315,5 +317,37 @@ impl<E: Env> Env for DefenderEnv<E> {
             self.end_episode(Outcome::Truncated);
         }
         Ok(step)
+    }
+
+    /// The dynamics model (weights, optimiser, its transition buffer, RNG) goes into
+    /// `dir/dynamics/`, the counters into `dir/defender_stats.json`, and the inner environment's
+    /// own state (if any) into `dir/inner/`. The filter needs nothing: it restarts every episode
+    /// and checkpoints are taken at episode boundaries.
+    fn save_state(&self, dir: &Path) -> defender_rl::Result<()> {
+        let state_err = |path: PathBuf, reason: String| EnvError::State { path, reason };
+        self.dynamics
+            .save(dir.join("dynamics"))
+            .map_err(|e| state_err(dir.join("dynamics"), e.to_string()))?;
+        let stats_path = dir.join("defender_stats.json");
+        let text = serde_json::to_vec_pretty(&self.stats)
+            .map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        std::fs::write(&stats_path, text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        let inner = dir.join("inner");
+        std::fs::create_dir_all(&inner).map_err(|e| state_err(inner.clone(), e.to_string()))?;
+        self.inner.save_state(&inner)
+    }
+
+    fn load_state(&mut self, dir: &Path) -> defender_rl::Result<()> {
+        let state_err = |path: PathBuf, reason: String| EnvError::State { path, reason };
+        let model_dir = dir.join("dynamics");
+        let model =
+            DynamicsModel::load(&model_dir).map_err(|e| state_err(model_dir.clone(), e.to_string()))?;
+        self.set_dynamics(model).map_err(|e| state_err(model_dir.clone(), e.to_string()))?;
+        let stats_path = dir.join("defender_stats.json");
+        let text = std::fs::read(&stats_path).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        self.stats =
+            serde_json::from_slice(&text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        self.needs_reset = true;
+        self.inner.load_state(&dir.join("inner"))
     }
 }

@@ -1,4 +1,6 @@
 //! One module per subcommand.
 
+pub mod demos;
 pub mod env;
 pub mod report;
+pub mod train;

@@ -1,0 +1,248 @@
+//! `defender demos collect`: demonstrations as in the paper: train a SAC agent and, after every
+//! training episode, record one episode of the current policy.
+//!
+//! How the N of each kind are picked: every recorded episode is a candidate, safe if the
+//! environment did not terminate it before the horizon, unsafe if it did. Training stops once
+//! both groups have enough candidates (or at `--max-steps`), and then N are taken from each group
+//! at evenly spaced positions of its candidate list (first and last included). So the unsafe
+//! group spans the whole run, from the falls of an untrained policy to the rarer falls of a good
+//! one, instead of being the first N crashes of a near-random policy, and the safe group spans
+//! every policy that survived the horizon. The rule and the source episode of each demonstration
+//! are written into the file's `meta`.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use defender::{EpisodeRecorder, EpisodeSet, Meta};
+use defender_rl::{
+    Agent, AlgoConfig, Budget, Env, EpisodeRecord, HookError, Hooks, SacConfig, SeedPurpose, Trainer,
+    TrainerConfig, derive_seed,
+};
+
+use crate::progress;
+
+/// `defender demos` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum DemosCommand {
+    /// Train SAC and record one episode of the current policy after every training episode.
+    #[command(after_help = "Examples:
+  defender demos collect --env InvertedDoublePendulum-v5 --out data/demos/InvertedDoublePendulum-v5.npz
+  defender demos collect --env Hopper-v5 --safe 50 --unsafe 50 --max-steps 400000 --out hopper.npz
+
+A demonstration is unsafe when the environment terminated it before the horizon (it crashed),
+safe otherwise. N of each are picked at evenly spaced positions among all candidates, so that both
+groups span the training run; see the file's meta for the rule and the source episodes.")]
+    Collect(CollectArgs),
+}
+
+/// Arguments of `defender demos collect`.
+#[derive(Debug, Args)]
+pub struct CollectArgs {
+    /// Gymnasium id of the task.
+    #[arg(long)]
+    pub env: String,
+    /// Safe demonstrations to keep.
+    #[arg(long, default_value_t = 50)]
+    pub safe: usize,
+    /// Unsafe demonstrations to keep.
+    #[arg(long = "unsafe", default_value_t = 50)]
+    pub unsafe_: usize,
+    /// Stop training after this many environment steps even if a group is short (then it fails).
+    #[arg(long, default_value_t = 400_000)]
+    pub max_steps: u64,
+    /// Train at least this many steps before stopping (more candidates to spread over).
+    #[arg(long, default_value_t = 0)]
+    pub min_steps: u64,
+    /// Seed of the SAC agent and of every reset.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Where to write the demonstration set (.npz, SPEC section 8).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs a `demos` subcommand.
+pub fn run(cmd: DemosCommand) -> Result<()> {
+    match cmd {
+        DemosCommand::Collect(args) => collect(&args),
+    }
+}
+
+fn collect(args: &CollectArgs) -> Result<()> {
+    if args.safe == 0 || args.unsafe_ == 0 {
+        bail!("--safe and --unsafe must be >= 1 (DEFENDER needs both groups)");
+    }
+    let env = defender_mujoco::make(&args.env)?;
+    let (obs_dim, act_dim) = (env.observation_space().dim(), env.action_space().dim());
+    let agent = AlgoConfig::Sac(SacConfig::default()).build(obs_dim, act_dim, args.seed)?;
+    let eval_env = defender_mujoco::make(&args.env)?;
+    let mut config = TrainerConfig::new(args.seed, Budget::Steps(args.max_steps));
+    config.final_eval_episodes = 1;
+    let mut trainer = Trainer::new(agent, env, eval_env, config)?;
+    let pool_meta = Meta {
+        env_id: Some(args.env.clone()),
+        obs_dim: Some(obs_dim),
+        act_dim: Some(act_dim),
+        ..Meta::default()
+    };
+    let mut hooks = Collector {
+        args,
+        demo_env: defender_mujoco::make(&args.env)?,
+        pool: EpisodeSet::new(obs_dim, act_dim, pool_meta)?,
+        sources: Vec::new(),
+        recorder: EpisodeRecorder::new(),
+        action: vec![0.0; act_dim],
+        env_action: vec![0.0; act_dim],
+        total_steps: 0,
+        bar: progress::bar(args.max_steps, "steps"),
+    };
+    trainer.run(&mut hooks)?;
+    hooks.bar.finish_and_clear();
+    let steps = trainer.total_steps();
+    let set = hooks.select(steps)?;
+    set.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
+    let (safe, unsafe_) = set.group_sizes();
+    println!(
+        "{}: {safe} safe and {unsafe_} unsafe demonstrations ({} transitions) from {} candidates over {steps} \
+         training steps -> {}",
+        args.env,
+        set.transitions(),
+        hooks.pool.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Records a demonstration after every training episode and decides when there are enough.
+struct Collector<'a> {
+    args: &'a CollectArgs,
+    demo_env: defender_rl::TimeLimit<defender_mujoco::MujocoEnv>,
+    pool: EpisodeSet,
+    /// The training episode after which each pool entry was recorded.
+    sources: Vec<u64>,
+    recorder: EpisodeRecorder,
+    action: Vec<f32>,
+    env_action: Vec<f64>,
+    total_steps: u64,
+    bar: indicatif::ProgressBar,
+}
+
+impl Collector<'_> {
+    fn enough(&self) -> bool {
+        let (safe, unsafe_) = self.pool.group_sizes();
+        safe >= self.args.safe && unsafe_ >= self.args.unsafe_ && self.total_steps >= self.args.min_steps
+    }
+
+    /// One episode of the deterministic policy, recorded into the pool.
+    fn demonstrate(&mut self, after_episode: u64, agent: &mut dyn Agent) -> Result<()> {
+        let seed = derive_seed(self.args.seed, SeedPurpose::Demonstration, after_episode);
+        let mut obs = self.demo_env.reset(Some(seed))?;
+        self.recorder.start(&obs);
+        let space = self.demo_env.action_space().clone();
+        loop {
+            agent.act(&obs, true, &mut self.action)?;
+            for (i, (a, out)) in self.action.iter().zip(&mut self.env_action).enumerate() {
+                // [-1, 1] -> the action bounds, as the trainer does.
+                *out = space.low()[i] + (f64::from(*a) + 1.0) * 0.5 * (space.high()[i] - space.low()[i]);
+            }
+            let step = self.demo_env.step(&self.env_action)?;
+            self.recorder.step(&self.env_action, step.reward, &step.obs)?;
+            if step.done() {
+                // SPEC section 6: crashed = the environment terminated it before the horizon.
+                self.recorder.finish(&mut self.pool, step.terminated)?;
+                self.sources.push(after_episode);
+                return Ok(());
+            }
+            obs = step.obs;
+        }
+    }
+
+    /// N of each group at evenly spaced positions of the candidates, in the order they were made.
+    fn select(&self, training_steps: u64) -> Result<EpisodeSet> {
+        let (safe, unsafe_) = self.pool.group_sizes();
+        if safe < self.args.safe || unsafe_ < self.args.unsafe_ {
+            bail!(
+                "{}: after {training_steps} training steps only {safe} safe and {unsafe_} unsafe candidates \
+                 (asked {} and {}); raise --max-steps or ask for fewer",
+                self.args.env,
+                self.args.safe,
+                self.args.unsafe_
+            );
+        }
+        let by_group = |crashed: bool| -> Vec<usize> {
+            (0..self.pool.len()).filter(|&i| self.pool.episode(i).crashed == crashed).collect()
+        };
+        let mut chosen: Vec<usize> = spread(&by_group(false), self.args.safe);
+        chosen.extend(spread(&by_group(true), self.args.unsafe_));
+        chosen.sort_unstable();
+        let mut meta = self.pool.meta().clone();
+        meta.provenance = Some(format!(
+            "defender demos collect: SAC (seed {}) trained {training_steps} steps; after every training \
+             episode one episode of the deterministic policy was recorded ({} candidates)",
+            self.args.seed,
+            self.pool.len()
+        ));
+        meta.extra.insert(
+            "selection".into(),
+            "per group, evenly spaced positions (first and last included) among the candidates in order"
+                .into(),
+        );
+        meta.extra.insert(
+            "source_training_episodes".into(),
+            chosen.iter().map(|&i| self.sources[i]).collect::<Vec<u64>>().into(),
+        );
+        meta.extra.insert("training_steps".into(), training_steps.into());
+        let mut set = EpisodeSet::new(self.pool.obs_dim(), self.pool.act_dim(), meta)?;
+        for i in chosen {
+            let e = self.pool.episode(i);
+            set.push_episode(e.obs, e.act, e.rew, e.crashed)?;
+        }
+        Ok(set)
+    }
+}
+
+/// `n` indices of `items` at evenly spaced positions, first and last included (`n <= len`).
+fn spread(items: &[usize], n: usize) -> Vec<usize> {
+    if n == 1 {
+        return vec![items[items.len() - 1]];
+    }
+    (0..n).map(|k| items[(k * (items.len() - 1) + (n - 1) / 2) / (n - 1)]).collect()
+}
+
+impl Hooks for Collector<'_> {
+    fn on_step(&mut self, total_steps: u64) {
+        self.total_steps = total_steps;
+        self.bar.set_position(total_steps);
+    }
+
+    fn after_episode(&mut self, record: &EpisodeRecord, agent: &mut dyn Agent) -> Result<(), HookError> {
+        self.demonstrate(record.episode, agent)?;
+        let (safe, unsafe_) = self.pool.group_sizes();
+        self.bar.set_message(format!(
+            "safe {safe}/{} unsafe {unsafe_}/{} (last training return {:.0})",
+            self.args.safe, self.args.unsafe_, record.episode_return
+        ));
+        Ok(())
+    }
+
+    fn should_stop(&mut self) -> bool {
+        self.enough()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spread;
+
+    #[test]
+    fn spread_takes_distinct_evenly_spaced_items_with_both_ends() {
+        let items: Vec<usize> = (0..10).collect();
+        assert_eq!(spread(&items, 10), items);
+        assert_eq!(spread(&items, 2), vec![0, 9]);
+        assert_eq!(spread(&items, 4), vec![0, 3, 6, 9]);
+        assert_eq!(spread(&items, 1), vec![9]);
+        let s = spread(&items, 7);
+        assert!(s.windows(2).all(|w| w[0] < w[1]) && s[0] == 0 && s[6] == 9);
+    }
+}

@@ -1,0 +1,475 @@
+//! `defender train`: SAC or TD3 on a MuJoCo task, bare or with DEFENDER, into a run directory.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use defender_rl::{
+    Agent, Algo, AlgoConfig, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, Outcome, RunEnd,
+    Trainer, TrainerConfig, Transition,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::progress;
+use crate::run_dir::{RunDir, Summary};
+use crate::setup::{self, DefenderSection, TrainingRecorder};
+
+/// Arguments of `defender train`.
+#[derive(Debug, Args)]
+#[command(after_help = "Examples:
+  defender train --env Hopper-v5 --algo sac --steps 300000 --out runs/hopper-sac-bare
+  defender train --env Hopper-v5 --algo sac --strategy MeanDemoW5/MeanDemoW10 --steps 300000 --out runs/hopper-sac-def
+  defender train --config my.toml --out runs/x          (flags override the file)
+  defender train --out runs/x --resume                  (continue a stopped run)
+
+Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
+The run directory gets config.toml, metrics.csv, eval.csv, summary.json and checkpoint/
+(docs/run-directory.md). Ctrl-C stops at the end of the current episode with a checkpoint.")]
+pub struct TrainArgs {
+    /// Gymnasium id of the task (see `defender env list`).
+    #[arg(long)]
+    pub env: Option<String>,
+    /// The RL algorithm: sac or td3 [default: sac].
+    #[arg(long, value_parser = parse_algo)]
+    pub algo: Option<Algo>,
+    /// A DEFENDER strategy SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10); none trains the bare algorithm.
+    #[arg(long)]
+    pub strategy: Option<String>,
+    /// Demonstration set (.npz, SPEC section 8); default: the one shipped for the task.
+    #[arg(long)]
+    pub demos: Option<PathBuf>,
+    /// Demonstrations used per group (the first N safe and the first N unsafe of the file).
+    #[arg(long)]
+    pub num_demos: Option<usize>,
+    /// Trajectory elements: states, or state-action pairs.
+    #[arg(long, value_parser = ["state", "state-action"])]
+    pub mode: Option<String>,
+    /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
+    #[arg(long, allow_negative_numbers = true)]
+    pub r_task: Option<f64>,
+    /// Budget in training episodes.
+    #[arg(long, conflicts_with = "steps")]
+    pub episodes: Option<u64>,
+    /// Budget in environment steps.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Seed of every random stream of the run.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Evaluate the deterministic policy every N steps (0: only at the end).
+    #[arg(long)]
+    pub eval_freq: Option<u64>,
+    /// Checkpoint every N training episodes (0: only at the end and on Ctrl-C).
+    #[arg(long)]
+    pub checkpoint_every: Option<u64>,
+    /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Save the training episodes as an episode set (.npz) for `defender ablate`.
+    #[arg(long)]
+    pub record_episodes: Option<PathBuf>,
+    /// Continue the stopped run in --out from its checkpoint (its config.toml is used).
+    #[arg(long)]
+    pub resume: bool,
+    /// The run directory to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn parse_algo(s: &str) -> Result<Algo, String> {
+    s.parse().map_err(|_| format!("unknown algorithm '{s}'; expected sac or td3"))
+}
+
+/// The resolved configuration of a run: written to `config.toml`, readable by `--config`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Gymnasium id.
+    pub env: String,
+    /// `sac` or `td3`.
+    pub algo: Algo,
+    /// The run's seed.
+    #[serde(default)]
+    pub seed: u64,
+    /// Budget in environment steps (0 when the budget is in episodes).
+    #[serde(default)]
+    pub total_steps: u64,
+    /// Budget in episodes (0 when the budget is in steps).
+    #[serde(default)]
+    pub total_episodes: u64,
+    /// Evaluate every this many steps (0: only the final evaluation).
+    #[serde(default)]
+    pub eval_freq: u64,
+    /// Episodes per periodic evaluation.
+    #[serde(default = "five")]
+    pub eval_episodes: usize,
+    /// Checkpoint every this many episodes (0: at the end and on stop).
+    #[serde(default)]
+    pub checkpoint_every_episodes: u64,
+    /// Where the training episodes are saved as an episode set, if anywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub record_episodes: Option<PathBuf>,
+    /// DEFENDER's settings; absent for a bare run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defender: Option<DefenderSection>,
+    /// SAC hyperparameters (used when `algo = "sac"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sac: Option<defender_rl::SacConfig>,
+    /// TD3 hyperparameters (used when `algo = "td3"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub td3: Option<defender_rl::Td3Config>,
+}
+
+fn five() -> usize {
+    5
+}
+
+impl RunConfig {
+    fn budget(&self) -> Result<Budget> {
+        match (self.total_steps, self.total_episodes) {
+            (0, 0) => bail!("no budget: give --steps N or --episodes N (or total_steps / total_episodes)"),
+            (s, 0) => Ok(Budget::Steps(s)),
+            (0, e) => Ok(Budget::Episodes(e)),
+            _ => bail!("give a budget in steps or in episodes, not both"),
+        }
+    }
+}
+
+/// Reads a TOML run configuration, refusing unknown keys.
+pub fn read_config(path: &Path) -> Result<RunConfig> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
+}
+
+/// Resolves flags over an optional configuration file.
+fn resolve(args: &TrainArgs) -> Result<RunConfig> {
+    let mut config = match &args.config {
+        Some(path) => read_config(path)?,
+        None => RunConfig {
+            env: args
+                .env
+                .clone()
+                .context("--env is required (e.g. --env Hopper-v5; see `defender env list`)")?,
+            algo: args.algo.unwrap_or(Algo::Sac),
+            seed: 0,
+            total_steps: 0,
+            total_episodes: 0,
+            eval_freq: 0,
+            eval_episodes: five(),
+            checkpoint_every_episodes: 0,
+            record_episodes: None,
+            defender: None,
+            sac: None,
+            td3: None,
+        },
+    };
+    if let Some(env) = &args.env {
+        config.env.clone_from(env);
+    }
+    if let Some(algo) = args.algo {
+        config.algo = algo;
+    }
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    if let Some(steps) = args.steps {
+        (config.total_steps, config.total_episodes) = (steps, 0);
+    }
+    if let Some(episodes) = args.episodes {
+        (config.total_steps, config.total_episodes) = (0, episodes);
+    }
+    if let Some(f) = args.eval_freq {
+        config.eval_freq = f;
+    }
+    if let Some(c) = args.checkpoint_every {
+        config.checkpoint_every_episodes = c;
+    }
+    if args.record_episodes.is_some() {
+        config.record_episodes.clone_from(&args.record_episodes);
+    }
+    let wants_defender = args.strategy.is_some()
+        || args.demos.is_some()
+        || args.num_demos.is_some()
+        || args.mode.is_some()
+        || args.r_task.is_some();
+    if wants_defender && config.defender.is_none() {
+        let strategy = args.strategy.as_deref().context(
+            "--demos, --num-demos, --mode and --r-task configure DEFENDER: give --strategy SAFE/UNSAFE too",
+        )?;
+        config.defender = Some(DefenderSection::new(strategy.parse().context("--strategy")?));
+    }
+    if let Some(section) = &mut config.defender {
+        section.apply_flags(args)?;
+    }
+    match config.algo {
+        Algo::Sac => {
+            config.sac.get_or_insert_with(Default::default);
+            config.td3 = None;
+        }
+        Algo::Td3 => {
+            config.td3.get_or_insert_with(Default::default);
+            config.sac = None;
+        }
+    }
+    config.budget()?;
+    Ok(config)
+}
+
+impl RunConfig {
+    fn algo_config(&self) -> AlgoConfig {
+        match self.algo {
+            Algo::Sac => AlgoConfig::Sac(self.sac.clone().unwrap_or_default()),
+            Algo::Td3 => AlgoConfig::Td3(self.td3.clone().unwrap_or_default()),
+        }
+    }
+}
+
+/// Runs `defender train`.
+pub fn run(args: TrainArgs) -> Result<()> {
+    let config = if args.resume {
+        let path = args.out.join("config.toml");
+        let mut config = read_config(&path).with_context(|| format!("--resume needs {}", path.display()))?;
+        // A resumed run may only be given a larger budget; everything else is the saved run's.
+        if let Some(steps) = args.steps {
+            config.total_steps = steps;
+        }
+        if let Some(episodes) = args.episodes {
+            config.total_episodes = episodes;
+        }
+        config
+    } else {
+        resolve(&args)?
+    };
+    let mut config = config;
+    let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_mut())?;
+    let recorder = match &config.record_episodes {
+        Some(_) => Some(TrainingRecorder::new(
+            &config.env,
+            built.env.observation_space().dim(),
+            built.env.action_space().dim(),
+            format!("training episodes of `defender train` ({} seed {})", config.algo.as_str(), config.seed),
+        )?),
+        None => None,
+    };
+    let budget = config.budget()?;
+    let mut trainer_config = TrainerConfig::new(config.seed, budget);
+    trainer_config.eval_freq = config.eval_freq;
+    trainer_config.eval_episodes = config.eval_episodes;
+    trainer_config.checkpoint_every_episodes = config.checkpoint_every_episodes;
+
+    let checkpoint_dir = args.out.join("checkpoint");
+    if !args.resume && (checkpoint_dir.exists() || args.out.join("summary.json").exists()) {
+        bail!("{} already holds a run; use --resume to continue it, or another --out", args.out.display());
+    }
+    let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
+        .with_checkpoint_dir(&checkpoint_dir);
+
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        // A second Ctrl-C while the checkpoint is written kills the process as usual.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    let mut hooks = TrainHooks::new(&args.out, &config, budget, Arc::clone(&stop), recorder)?;
+    if args.resume {
+        trainer.resume(&checkpoint_dir, &mut hooks)?;
+        hooks.restart(trainer.episodes(), trainer.evaluations(), trainer.total_steps())?;
+    }
+    hooks.run_dir.write_config(&config)?;
+    hooks.write_summary(&trainer, None)?;
+
+    let end = trainer.run(&mut hooks)?;
+    hooks.bar.finish_and_clear();
+    let final_eval = match &end {
+        RunEnd::Complete(eval) => Some(eval.clone()),
+        RunEnd::Stopped => None,
+    };
+    let summary = hooks.write_summary(&trainer, final_eval.as_ref())?;
+    if let RunEnd::Complete(_) = end {
+        let actor = args.out.join("actor.safetensors");
+        trainer.agent().save_actor(&actor).with_context(|| format!("cannot save {}", actor.display()))?;
+        if let (Some(path), Some(recorder)) = (&config.record_episodes, hooks.recorder.take()) {
+            recorder.save(path)?;
+            eprintln!("recorded {} training episodes into {}", recorder.len(), path.display());
+        }
+    }
+    print_summary(&args.out, &summary, matches!(end, RunEnd::Stopped));
+    Ok(())
+}
+
+fn print_summary(out: &Path, s: &Summary, stopped: bool) {
+    let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
+    let what = s.strategy.as_deref().map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
+    println!(
+        "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
+        s.env,
+        s.algo,
+        s.seed,
+        s.steps,
+        s.episodes,
+        s.crash_pct,
+        s.filtered_pct,
+        s.steps_per_second,
+        s.wall_seconds
+    );
+    if stopped {
+        println!("stopped; continue with: defender train --out {} --resume", out.display());
+    } else {
+        println!("run directory: {}", out.display());
+    }
+}
+
+/// Writes the run directory as training goes, draws the progress bar, and stops on Ctrl-C.
+struct TrainHooks {
+    run_dir: RunDir,
+    config: RunConfig,
+    bar: indicatif::ProgressBar,
+    by_steps: bool,
+    stop: Arc<AtomicBool>,
+    crashed: u64,
+    filtered: u64,
+    episodes: u64,
+    recorder: Option<TrainingRecorder>,
+    error: Option<anyhow::Error>,
+}
+
+impl TrainHooks {
+    fn new(
+        out: &Path,
+        config: &RunConfig,
+        budget: Budget,
+        stop: Arc<AtomicBool>,
+        recorder: Option<TrainingRecorder>,
+    ) -> Result<Self> {
+        let (total, unit, by_steps) = match budget {
+            Budget::Steps(s) => (s, "steps", true),
+            Budget::Episodes(e) => (e, "episodes", false),
+        };
+        Ok(Self {
+            run_dir: RunDir::create(out, &[], &[])?,
+            config: config.clone(),
+            bar: progress::bar(total, unit),
+            by_steps,
+            stop,
+            crashed: 0,
+            filtered: 0,
+            episodes: 0,
+            recorder,
+            error: None,
+        })
+    }
+
+    /// After a resume: the files restart from the checkpoint's records.
+    fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
+        self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals)?;
+        for r in episodes {
+            self.count(r);
+        }
+        self.bar.set_position(if self.by_steps { steps } else { episodes.len() as u64 });
+        Ok(())
+    }
+
+    fn count(&mut self, r: &EpisodeRecord) {
+        self.episodes += 1;
+        match r.outcome() {
+            Outcome::Crashed => self.crashed += 1,
+            Outcome::Filtered => self.filtered += 1,
+            Outcome::Truncated => {}
+        }
+    }
+
+    fn write_summary<A: Agent, E: Env, V: Env>(
+        &self,
+        trainer: &Trainer<A, E, V>,
+        final_eval: Option<&EvalRecord>,
+    ) -> Result<Summary> {
+        let defender = self.config.defender.as_ref();
+        let mut summary = Summary {
+            env: self.config.env.clone(),
+            algo: self.config.algo.as_str().to_string(),
+            seed: self.config.seed,
+            strategy: defender.map(|d| d.strategy.to_string()),
+            mode: defender.map(|d| d.mode.to_string()),
+            acc_reward: final_eval.map(|e| e.mean_return),
+            crash_pct: 0.0,
+            filtered_pct: 0.0,
+            episodes: 0,
+            steps: trainer.total_steps(),
+            // A filtered step always ends its episode: one per filtered episode.
+            filtered_steps: self.filtered,
+            wall_seconds: trainer.wall_seconds(),
+            steps_per_second: 0.0,
+            complete: final_eval.is_some(),
+        };
+        summary.count(trainer.episodes());
+        self.run_dir.write_summary(&summary)?;
+        Ok(summary)
+    }
+}
+
+impl Hooks for TrainHooks {
+    fn on_step(&mut self, total_steps: u64) {
+        if self.by_steps {
+            self.bar.set_position(total_steps);
+        }
+    }
+
+    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64]) {
+        if let (Some(recorder), None) = (&mut self.recorder, &self.error) {
+            // Hooks of a step cannot fail; the error stops the run at the episode's end.
+            self.error = recorder.transition(transition, env_action).err();
+        }
+    }
+
+    fn on_episode_end(&mut self, record: &EpisodeRecord) -> Result<(), HookError> {
+        if let Some(error) = self.error.take() {
+            return Err(error.into());
+        }
+        self.count(record);
+        self.run_dir.append_episode(record)?;
+        if let Some(recorder) = &mut self.recorder {
+            recorder.end_episode(record)?;
+        }
+        if !self.by_steps {
+            self.bar.set_position(self.episodes);
+        }
+        let n = self.episodes.max(1) as f64;
+        self.bar.set_message(format!(
+            "ep {} return {:.0} crash {:.1}% filtered {:.1}%",
+            record.episode,
+            record.episode_return,
+            100.0 * self.crashed as f64 / n,
+            100.0 * self.filtered as f64 / n
+        ));
+        Ok(())
+    }
+
+    fn on_evaluation(&mut self, record: &EvalRecord) -> Result<(), HookError> {
+        self.run_dir.append_eval(record)?;
+        Ok(())
+    }
+
+    fn on_checkpoint(&mut self, dir: &Path) -> Result<(), HookError> {
+        if let Some(recorder) = &self.recorder {
+            recorder.save_checkpoint(dir)?;
+        }
+        Ok(())
+    }
+
+    fn on_resume(&mut self, dir: &Path) -> Result<(), HookError> {
+        if let Some(recorder) = &mut self.recorder {
+            recorder.load_checkpoint(dir)?;
+        }
+        Ok(())
+    }
+
+    fn should_stop(&mut self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+}
