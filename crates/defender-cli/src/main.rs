@@ -26,8 +26,12 @@ enum Command {
     Demos(commands::demos::DemosCommand),
     /// Train SAC or TD3 on a task, bare or with DEFENDER, into a run directory.
     Train(Box<commands::train::TrainArgs>),
+    /// Rank filtering strategies offline by replaying recorded episodes (SPEC section 7).
+    Ablate(commands::ablate::AblateArgs),
     /// The paper's tables (Markdown, LaTeX, CSV) and learning-curve plots from run directories.
     Report(commands::report::ReportArgs),
+    /// Measure the project's performance figures on this machine and print them against targets.
+    Bench(commands::bench::BenchArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -35,8 +39,10 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
         Command::Report(args) => commands::report::run(args),
+        Command::Bench(args) => commands::bench::run(args),
         Command::Train(args) => commands::train::run(*args),
         Command::Demos(cmd) => commands::demos::run(cmd),
+        Command::Ablate(args) => commands::ablate::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

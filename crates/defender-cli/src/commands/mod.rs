@@ -1,5 +1,7 @@
 //! One module per subcommand.
 
+pub mod ablate;
+pub mod bench;
 pub mod demos;
 pub mod env;
 pub mod report;

@@ -1,0 +1,220 @@
+//! End to end on tiny budgets, through the built binary: train bare and with DEFENDER (recording
+//! the episodes), ablate the recording, report the runs; and check that the numbers in the files
+//! agree with each other.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const ENV_ID: &str = "InvertedDoublePendulum-v5";
+
+fn defender(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().expect("run defender");
+    out
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = defender(args);
+    assert!(
+        out.status.success(),
+        "defender {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn shipped_demos() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos").join(format!("{ENV_ID}.npz"))
+}
+
+struct Metrics {
+    rows: Vec<(u64, u64, f64, u64, String)>,
+}
+
+fn read_metrics(dir: &Path) -> Metrics {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "episode,total_steps,return,length,outcome,wall_seconds");
+    let rows = lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), 6, "{l}");
+            (
+                f[0].parse().unwrap(),
+                f[1].parse().unwrap(),
+                f[2].parse().unwrap(),
+                f[3].parse().unwrap(),
+                f[4].into(),
+            )
+        })
+        .collect();
+    Metrics { rows }
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// The files of one run agree: episodes are numbered in order, steps add up, the summary's
+/// counts are those of metrics.csv, and Acc Reward is the last evaluation.
+fn check_consistent(dir: &Path, steps: u64) -> Metrics {
+    let m = read_metrics(dir);
+    let s = summary(dir);
+    assert!(!m.rows.is_empty());
+    let mut total = 0;
+    for (i, (episode, total_steps, _ret, length, outcome)) in m.rows.iter().enumerate() {
+        assert_eq!(*episode, i as u64);
+        total += length;
+        assert_eq!(*total_steps, total, "total_steps adds the lengths");
+        assert!(["crashed", "filtered", "truncated"].contains(&outcome.as_str()), "{outcome}");
+    }
+    assert!(total <= steps);
+    assert_eq!(s["steps"].as_u64().unwrap(), steps);
+    assert_eq!(s["episodes"].as_u64().unwrap(), m.rows.len() as u64);
+    assert_eq!(s["complete"], serde_json::Value::Bool(true));
+    let n = m.rows.len() as f64;
+    let count = |o: &str| m.rows.iter().filter(|r| r.4 == o).count() as f64;
+    assert!((s["crash_pct"].as_f64().unwrap() - 100.0 * count("crashed") / n).abs() < 1e-9);
+    assert!((s["filtered_pct"].as_f64().unwrap() - 100.0 * count("filtered") / n).abs() < 1e-9);
+    assert_eq!(s["filtered_steps"].as_u64().unwrap() as f64, count("filtered"));
+    let eval = std::fs::read_to_string(dir.join("eval.csv")).unwrap();
+    let last = eval.lines().last().unwrap();
+    let acc: f64 = last.split(',').nth(1).unwrap().parse().unwrap();
+    assert!((s["acc_reward"].as_f64().unwrap() - acc).abs() < 1e-9);
+    assert!(dir.join("config.toml").is_file() && dir.join("actor.safetensors").is_file());
+    assert!(dir.join("checkpoint").join("trainer.json").is_file());
+    m
+}
+
+#[test]
+fn train_ablate_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let demos = shipped_demos();
+    let demos = demos.to_str().unwrap();
+    let steps = 1200u64;
+    let steps_s = steps.to_string();
+    let bare = root.join("runs/bare");
+    let def = root.join("runs/defender");
+    let recorded = root.join("episodes.npz");
+    let common = ["train", "--env", ENV_ID, "--steps", &steps_s, "--seed", "3"];
+
+    let out = ok(&[
+        &common[..],
+        &["--out", bare.to_str().unwrap(), "--record-episodes", recorded.to_str().unwrap()],
+    ]
+    .concat());
+    assert!(out.contains("bare seed 3"), "{out}");
+    let bare_m = check_consistent(&bare, steps);
+    assert!(bare_m.rows.iter().all(|r| r.4 != "filtered"), "a bare run filters nothing");
+
+    let out = ok(&[
+        &common[..],
+        &[
+            "--strategy",
+            "MeanDemoW5/MeanDemoW10",
+            "--demos",
+            demos,
+            "--num-demos",
+            "5",
+            "--out",
+            def.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert!(out.contains("DEFENDER MeanDemoW5/MeanDemoW10"), "{out}");
+    let def_m = check_consistent(&def, steps);
+    assert!(def_m.rows.iter().any(|r| r.4 == "filtered"), "an untrained agent gets filtered");
+    let config = std::fs::read_to_string(def.join("config.toml")).unwrap();
+    let config: toml::Value = toml::from_str(&config).unwrap();
+    let section = &config["defender"];
+    assert_eq!(section["strategy"].as_str(), Some("MeanDemoW5/MeanDemoW10"));
+    assert_eq!(section["num_demos"].as_integer(), Some(5));
+    let r_task = section["r_task"].as_float().expect("R_task is written");
+    // A filtered episode ends with R_task as its last reward; its return includes it.
+    assert!(r_task.is_finite());
+
+    // The recorded episodes of the bare run are an episode set numpy-compatible tools read.
+    let scores = root.join("scores.csv");
+    let out = ok(&[
+        "ablate",
+        "--demos",
+        demos,
+        "--episodes",
+        recorded.to_str().unwrap(),
+        "--num-demos",
+        "5",
+        "--strategies",
+        "MeanDemoW5/MeanDemoW10,MinBoth/MinTrajW10,MaxBothW5/MinDemoW10",
+        "--out",
+        scores.to_str().unwrap(),
+    ]);
+    assert!(out.contains("3 strategies ranked"), "{out}");
+    let csv = std::fs::read_to_string(&scores).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "rank,strategy,safe_method,unsafe_method,mode,mean_ratio,safe_rate,score"
+    );
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    assert_eq!(rows.len(), 3);
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r[0], (i + 1).to_string());
+        let (ratio, rate, score): (f64, f64, f64) =
+            (r[5].parse().unwrap(), r[6].parse().unwrap(), r[7].parse().unwrap());
+        assert!((0.0..=1.0).contains(&ratio) && (0.0..=1.0).contains(&rate));
+        assert!((score - ratio * rate).abs() < 1e-12, "score = mean_ratio x safe_rate");
+        assert_eq!(r[4], "state");
+    }
+    let scores_sorted: Vec<f64> = rows.iter().map(|r| r[7].parse().unwrap()).collect();
+    assert!(scores_sorted.windows(2).all(|w| w[0] >= w[1]), "ranked by score");
+
+    // The report reads both runs: one bare row and one DEFENDER row, with % Time against the bare run.
+    let table = ok(&["report", root.join("runs").to_str().unwrap(), "--format", "csv"]);
+    assert_eq!(table.lines().count(), 3, "{table}");
+    assert!(table.contains("MeanDemoW5/MeanDemoW10") || table.contains("MeanDemoW5"), "{table}");
+}
+
+#[test]
+fn errors_name_what_to_fix() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out_dir = tmp.path().join("x");
+    let out = out_dir.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (&["train", "--env", "Nope-v0", "--steps", "10", "--out", out], "known ids"),
+        (&["train", "--env", ENV_ID, "--out", out], "--steps"),
+        (&["train", "--env", ENV_ID, "--steps", "10", "--strategy", "MeanDemo/X", "--out", out], "strategy"),
+        (
+            &[
+                "train",
+                "--env",
+                ENV_ID,
+                "--steps",
+                "10",
+                "--strategy",
+                "MinBoth/MinBoth",
+                "--demos",
+                "/nonexistent.npz",
+                "--out",
+                out,
+            ],
+            "/nonexistent.npz",
+        ),
+        (&["demos", "collect", "--env", ENV_ID, "--max-steps", "200", "--out", out], "raise --max-steps"),
+    ];
+    for (args, expected) in cases {
+        let o = defender(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(err.contains(expected), "{args:?}: '{expected}' not in: {err}");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    }
+    // A config file with an unknown key is refused with its name.
+    let cfg = tmp.path().join("c.toml");
+    std::fs::write(&cfg, "env = \"Hopper-v5\"\nalgo = \"sac\"\ntotal_steps = 10\nlerning_rate = 1\n")
+        .unwrap();
+    let o = defender(&["train", "--config", cfg.to_str().unwrap(), "--out", out]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("lerning_rate"), "{err}");
+}
