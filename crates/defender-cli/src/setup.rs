@@ -57,7 +57,7 @@ impl DefenderSection {
             mode: self.mode,
             num_demos: self.num_demos,
             r_task: self.r_task,
-            cost: self.cost.clone(),
+            cost: self.cost,
             dynamics: self.dynamics.clone(),
         })
     }

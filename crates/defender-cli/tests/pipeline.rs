@@ -9,8 +9,7 @@ use std::process::{Command, Output};
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
 fn defender(args: &[&str]) -> Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().expect("run defender");
-    out
+    Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().expect("run defender")
 }
 
 fn ok(args: &[&str]) -> String {
