@@ -18,10 +18,11 @@ use defender::{
     Filter, Meta, Mode, Strategy,
 };
 use defender_dtw::{Dtw, QueryWindow, RefWindow, References, View, dtw};
+use defender_mujoco::MujocoEnv;
 use defender_nn::Parallelism;
 use defender_rl::{
-    Agent, Algo, Budget, Env, EpisodeRecord, HookError, Hooks, Sac, SacConfig, Td3, Td3Config, Trainer,
-    TrainerConfig,
+    Agent, Algo, Budget, Env, EpisodeRecord, HookError, Hooks, Sac, SacConfig, Td3, Td3Config, TimeLimit,
+    Trainer, TrainerConfig,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -123,7 +124,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         steps: args.steps.unwrap_or(if args.quick { 200 } else { 2000 }),
         par,
         demos,
-        runs: Vec::new(),
+        selected: selected.clone(),
+        contest: None,
         progress: std::io::stderr().is_terminal(),
     };
 
@@ -490,13 +492,14 @@ impl Schedule {
     }
 }
 
+/// A training run: bare SAC or TD3, or SAC on `DefenderEnv`.
 #[derive(Debug, Clone, PartialEq)]
 enum RunKind {
     Bare(Algo),
     Defender { strategy: Strategy, mode: Mode, schedule: Schedule },
 }
 
-/// The timed part of one training run.
+/// The timed steps of one training run.
 #[derive(Debug, Clone, Copy)]
 struct Timing {
     seconds: f64,
@@ -515,59 +518,108 @@ impl Timing {
     }
 }
 
-/// Timestamps the first and last timed steps and counts the episodes in between.
-struct Clock {
+/// Times a training run step by step, in segments: it asks the trainer to stop at the first
+/// episode boundary after `stop_at` steps, so that several runs can take turns and see the same
+/// machine load. A step is timed from the end of the previous step to its own end (the agent's
+/// action, the environment step, the update and any reset in between); the first step of each
+/// segment and the warm-up steps (up to `learning_starts`) are not timed.
+struct SegmentClock {
     learning_starts: u64,
-    last: u64,
-    start: Option<(Instant, Option<f64>)>,
-    end: Option<(Instant, Option<f64>)>,
-    episodes: u64,
-    filtered: u64,
+    total: u64,
+    stop_at: u64,
+    steps_seen: u64,
+    last: Option<Instant>,
+    cpu_start: Option<f64>,
+    cpu_ok: bool,
+    timing: Timing,
 }
 
-impl Hooks for Clock {
-    fn on_step(&mut self, total_steps: u64) {
-        if total_steps == self.learning_starts {
-            self.start = Some((Instant::now(), process_cpu_seconds()));
+impl SegmentClock {
+    fn new(learning_starts: u64, total: u64) -> Self {
+        Self {
+            learning_starts,
+            total,
+            stop_at: 0,
+            steps_seen: 0,
+            last: None,
+            cpu_start: None,
+            cpu_ok: true,
+            timing: Timing { seconds: 0.0, cpu_seconds: Some(0.0), steps: 0, episodes: 0, filtered: 0 },
         }
-        if total_steps == self.last {
-            self.end = Some((Instant::now(), process_cpu_seconds()));
+    }
+
+    fn done(&self) -> bool {
+        self.steps_seen >= self.total
+    }
+
+    fn end_segment(&mut self) {
+        if self.last.take().is_some() {
+            match (self.cpu_start.take(), process_cpu_seconds(), self.timing.cpu_seconds.as_mut()) {
+                (Some(a), Some(b), Some(sum)) if self.cpu_ok => *sum += b - a,
+                _ => self.cpu_ok = false,
+            }
+        }
+    }
+
+    fn timing(&self) -> Timing {
+        Timing { cpu_seconds: self.timing.cpu_seconds.filter(|_| self.cpu_ok), ..self.timing }
+    }
+}
+
+impl Hooks for SegmentClock {
+    fn on_step(&mut self, total_steps: u64) {
+        self.steps_seen = total_steps;
+        if total_steps < self.learning_starts {
+            return;
+        }
+        let now = Instant::now();
+        match self.last {
+            Some(last) => {
+                self.timing.seconds += (now - last).as_secs_f64();
+                self.timing.steps += 1;
+            }
+            None => self.cpu_start = process_cpu_seconds(),
+        }
+        self.last = Some(now);
+        if total_steps >= self.total {
+            self.end_segment();
         }
     }
     fn on_episode_end(&mut self, record: &EpisodeRecord) -> Result<(), HookError> {
         if record.total_steps > self.learning_starts {
-            self.episodes += 1;
+            self.timing.episodes += 1;
             // A filtered episode ends on its one filtered step.
-            self.filtered += u64::from(record.filtered);
+            self.timing.filtered += u64::from(record.filtered);
         }
         Ok(())
     }
+    fn should_stop(&mut self) -> bool {
+        let stop = self.steps_seen >= self.stop_at && !self.done();
+        if stop {
+            self.end_segment();
+        }
+        stop
+    }
 }
 
-fn timed_run<A: Agent, E: Env>(agent: A, env: E, steps: u64) -> anyhow::Result<Timing> {
-    let total = LEARNING_STARTS + steps;
-    let eval_env = defender_mujoco::make(TASK)?;
-    let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(SEED, Budget::Steps(total)) };
-    let mut trainer = Trainer::new(agent, env, eval_env, config)?;
-    let mut clock = Clock {
-        learning_starts: LEARNING_STARTS,
-        last: total,
-        start: None,
-        end: None,
-        episodes: 0,
-        filtered: 0,
-    };
-    trainer.run(&mut clock)?;
-    let (Some((t0, c0)), Some((t1, c1))) = (clock.start, clock.end) else {
-        bail!("the training run did not reach step {LEARNING_STARTS} and step {total}");
-    };
-    Ok(Timing {
-        seconds: (t1 - t0).as_secs_f64(),
-        cpu_seconds: c0.zip(c1).map(|(a, b)| b - a),
-        steps,
-        episodes: clock.episodes,
-        filtered: clock.filtered,
-    })
+type AnyTrainer = Trainer<Box<dyn Agent>, Box<dyn Env>, TimeLimit<MujocoEnv>>;
+
+/// Runs the trainers in turns of about `segment` steps each until all have spent their budget.
+fn take_turns(runs: &mut [(AnyTrainer, SegmentClock)], segment: u64) -> anyhow::Result<()> {
+    loop {
+        let mut active = false;
+        for (trainer, clock) in runs.iter_mut() {
+            if clock.done() {
+                continue;
+            }
+            active = true;
+            clock.stop_at = clock.steps_seen.max(clock.learning_starts) + segment;
+            trainer.run(clock)?;
+        }
+        if !active {
+            return Ok(());
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -578,8 +630,9 @@ struct Bench {
     steps: u64,
     par: Parallelism,
     demos: Option<DemoSet>,
-    /// Every training run made so far, in order.
-    runs: Vec<(RunKind, Timing)>,
+    selected: Vec<&'static str>,
+    /// The interleaved training runs of `overhead` and `dynamics`, once made.
+    contest: Option<Vec<(RunKind, u8, Timing)>>,
     progress: bool,
 }
 
@@ -746,22 +799,29 @@ impl Bench {
         Ok(rows)
     }
 
-    /// Runs (or reuses) a training run.
-    fn run(&mut self, kind: RunKind, fresh: bool) -> anyhow::Result<Timing> {
-        if !fresh && let Some((_, t)) = self.runs.iter().find(|(k, _)| *k == kind) {
-            return Ok(*t);
-        }
-        self.note(&format!("training run {kind:?}, {} + {} steps", LEARNING_STARTS, self.steps));
-        let env = defender_mujoco::make(TASK)?;
-        let (obs_dim, act_dim) = (env.observation_space().dim(), env.action_space().dim());
-        let timing = match &kind {
-            RunKind::Bare(Algo::Sac) => timed_run(self.sac(obs_dim, act_dim)?, env, self.steps)?,
-            RunKind::Bare(Algo::Td3) => {
+    fn agent(&self, algo: Algo, obs_dim: usize, act_dim: usize) -> anyhow::Result<Box<dyn Agent>> {
+        Ok(match algo {
+            Algo::Sac => {
+                let config = SacConfig { learning_starts: LEARNING_STARTS, ..SacConfig::default() };
+                let mut agent = Sac::new(config, obs_dim, act_dim, SEED)?;
+                agent.set_parallelism(self.par);
+                Box::new(agent)
+            }
+            Algo::Td3 => {
                 let config = Td3Config { learning_starts: LEARNING_STARTS, ..Td3Config::default() };
                 let mut agent = Td3::new(config, obs_dim, act_dim, SEED)?;
                 agent.set_parallelism(self.par);
-                timed_run(agent, env, self.steps)?
+                Box::new(agent)
             }
+        })
+    }
+
+    /// A fresh trainer for `kind` (seed 0, `LEARNING_STARTS` + `steps` steps) and its clock.
+    fn trainer(&self, kind: &RunKind) -> anyhow::Result<(AnyTrainer, SegmentClock)> {
+        let env = defender_mujoco::make(TASK)?;
+        let (obs_dim, act_dim) = (env.observation_space().dim(), env.action_space().dim());
+        let (agent, env): (Box<dyn Agent>, Box<dyn Env>) = match kind {
+            RunKind::Bare(algo) => (self.agent(*algo, obs_dim, act_dim)?, Box::new(env)),
             RunKind::Defender { strategy, mode, schedule } => {
                 let config = DefenderConfig {
                     strategy: *strategy,
@@ -772,29 +832,24 @@ impl Bench {
                 let mut rng = ChaCha8Rng::seed_from_u64(SEED);
                 let mut env = DefenderEnv::new(env, &self.demos()?.set, config, &mut rng)?;
                 env.dynamics_mut().set_parallelism(self.par);
-                timed_run(self.sac(obs_dim, act_dim)?, env, self.steps)?
+                (self.agent(Algo::Sac, obs_dim, act_dim)?, Box::new(env))
             }
         };
-        self.runs.push((kind, timing));
-        Ok(timing)
-    }
-
-    fn sac(&self, obs_dim: usize, act_dim: usize) -> anyhow::Result<Sac> {
-        let config = SacConfig { learning_starts: LEARNING_STARTS, ..SacConfig::default() };
-        let mut agent = Sac::new(config, obs_dim, act_dim, SEED)?;
-        agent.set_parallelism(self.par);
-        Ok(agent)
+        let total = LEARNING_STARTS + self.steps;
+        let config =
+            TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(SEED, Budget::Steps(total)) };
+        let trainer = Trainer::new(agent, env, defender_mujoco::make(TASK)?, config)?;
+        Ok((trainer, SegmentClock::new(LEARNING_STARTS, total)))
     }
 
     fn training(&mut self, algo: Algo) -> anyhow::Result<Vec<Row>> {
-        let t = self.run(RunKind::Bare(algo), false)?;
-        let target = match algo {
-            Algo::Sac => 150.0,
-            Algo::Td3 => 200.0,
-        };
-        let name = match algo {
-            Algo::Sac => "SAC",
-            Algo::Td3 => "TD3",
+        self.note(&format!("{} training run, {LEARNING_STARTS} + {} steps", algo.as_str(), self.steps));
+        let mut runs = vec![self.trainer(&RunKind::Bare(algo))?];
+        take_turns(&mut runs, u64::MAX / 4)?; // one turn: the whole run
+        let t = runs[0].1.timing();
+        let (name, target) = match algo {
+            Algo::Sac => ("SAC", 150.0),
+            Algo::Td3 => ("TD3", 200.0),
         };
         Ok(vec![
             Row::new(
@@ -805,7 +860,7 @@ impl Bench {
             )
             .target(Target::AtLeast(target))
             .notes(format!(
-                "{} timed steps, {:.2} ms/step, {} networks thread(s){}",
+                "{} timed steps, {:.2} ms/step, {} network thread(s){}",
                 t.steps,
                 t.ms_per_step(),
                 self.par.num_threads(),
@@ -814,61 +869,60 @@ impl Bench {
         ])
     }
 
-    /// Bare SAC runs so far: the mean seconds and a note on their spread.
-    fn bare(&self) -> (f64, String) {
-        let bare: Vec<f64> = self
-            .runs
-            .iter()
-            .filter(|(k, _)| *k == RunKind::Bare(Algo::Sac))
-            .map(|(_, t)| t.ms_per_step())
-            .collect();
-        let mean = bare.iter().sum::<f64>() / bare.len().max(1) as f64;
-        let list: Vec<String> = bare.iter().map(|v| format!("{v:.2}")).collect();
-        (mean, format!("{} bare run(s): {} ms/step", bare.len(), list.join(", ")))
-    }
-
-    fn defender_row(&self, kind: &RunKind, what: String, target: Option<f64>) -> anyhow::Result<Row> {
-        let (bare_ms, _) = self.bare();
-        let Some((_, t)) = self.runs.iter().rev().find(|(k, _)| k == kind) else {
-            bail!("internal: no run {kind:?}");
-        };
-        let mut row = Row::new("overhead", what, t.ms_per_step() / bare_ms * 100.0, "% Time").notes(format!(
-            "{:.2} ms/step; {} of {} steps filtered ({:.0}%), {} episodes{}",
-            t.ms_per_step(),
-            t.filtered,
-            t.steps,
-            100.0 * t.filtered as f64 / t.steps as f64,
-            t.episodes,
-            t.cores()
-        ));
-        if let Some(target) = target {
-            row = row.target(Target::AtMost(target));
+    /// The training runs behind `overhead` and `dynamics`, made once for both and interleaved
+    /// (turns of about `steps / 8` steps) so that every run sees the same machine load: two
+    /// identical bare SAC runs (their ratio is the noise floor) and the DEFENDER runs.
+    fn contest(&mut self) -> anyhow::Result<Vec<(RunKind, u8, Timing)>> {
+        if let Some(done) = &self.contest {
+            return Ok(done.clone());
         }
-        Ok(row)
+        let mut kinds: Vec<(RunKind, u8)> =
+            vec![(RunKind::Bare(Algo::Sac), 0), (RunKind::Bare(Algo::Sac), 1)];
+        let mut add = |kind: RunKind| {
+            if !kinds.iter().any(|(k, _)| *k == kind) {
+                kinds.push((kind, 0));
+            }
+        };
+        if self.selected.contains(&"overhead") {
+            for (name, mode, _) in OVERHEAD_CASES {
+                add(RunKind::Defender { strategy: name.parse()?, mode, schedule: Schedule::Default });
+            }
+        }
+        if self.selected.contains(&"dynamics") {
+            for schedule in SCHEDULES {
+                add(RunKind::Defender { strategy: DYNAMICS_STRATEGY.parse()?, mode: Mode::State, schedule });
+            }
+        }
+        let segment = (self.steps / 8).max(50);
+        self.note(&format!(
+            "{} interleaved training runs of {LEARNING_STARTS} + {} steps, turns of {segment} steps",
+            kinds.len(),
+            self.steps
+        ));
+        let mut runs = Vec::with_capacity(kinds.len());
+        for (kind, _) in &kinds {
+            runs.push(self.trainer(kind)?);
+        }
+        take_turns(&mut runs, segment)?;
+        let done: Vec<(RunKind, u8, Timing)> =
+            kinds.into_iter().zip(&runs).map(|((k, r), (_, clock))| (k, r, clock.timing())).collect();
+        self.contest = Some(done.clone());
+        Ok(done)
     }
 
     fn overhead(&mut self) -> anyhow::Result<Vec<Row>> {
-        self.run(RunKind::Bare(Algo::Sac), false)?;
-        let cases: [(&str, Mode, f64); 4] = [
-            ("MeanDemoW5/MeanDemoW10", Mode::State, 115.0),
-            ("MeanBothW5/MeanBothW5", Mode::State, 115.0),
-            ("MinBoth/MinTrajW10", Mode::State, 150.0),
-            ("MinBoth/MinTrajW10", Mode::StateAction, 150.0),
-        ];
-        let mut kinds = Vec::new();
-        for (name, mode, target) in cases {
+        let runs = self.contest()?;
+        let (bare_ms, mut rows) = bare_rows(&runs, "overhead")?;
+        for (name, mode, target) in OVERHEAD_CASES {
             let kind = RunKind::Defender { strategy: name.parse()?, mode, schedule: Schedule::Default };
-            self.run(kind.clone(), false)?;
-            kinds.push((kind, format!("SAC + DEFENDER {name} ({mode})"), target));
-        }
-        self.run(RunKind::Bare(Algo::Sac), true)?; // the load may have changed meanwhile
-        let (bare_ms, spread) = self.bare();
-        let mut rows = vec![
-            Row::new("overhead", format!("SAC bare on {TASK} (the 100% reference)"), bare_ms, "ms/step")
-                .notes(format!("mean of {spread}")),
-        ];
-        for (kind, what, target) in kinds {
-            rows.push(self.defender_row(&kind, what, Some(target))?);
+            let t = find(&runs, &kind, 0)?;
+            rows.push(defender_row(
+                "overhead",
+                &t,
+                bare_ms,
+                format!("SAC + DEFENDER {name} ({mode})"),
+                Some(target),
+            ));
         }
         Ok(rows)
     }
@@ -915,45 +969,100 @@ impl Bench {
                     .notes(format!("{how}; predict + store + train, {} thread(s)", self.par.num_threads())),
             );
         }
-
-        self.run(RunKind::Bare(Algo::Sac), false)?;
-        let strategy: Strategy = "MeanDemoW5/MeanDemoW10".parse()?;
+        let runs = self.contest()?;
+        let (bare_ms, bare) = bare_rows(&runs, "dynamics")?;
+        if !self.selected.contains(&"overhead") {
+            rows.extend(bare);
+        }
+        let strategy: Strategy = DYNAMICS_STRATEGY.parse()?;
         let kind = |schedule| RunKind::Defender { strategy, mode: Mode::State, schedule };
-        for schedule in [Schedule::Default, Schedule::Untrained, Schedule::Every(4), Schedule::Batch(64)] {
-            self.run(kind(schedule), false)?;
-        }
-        self.run(RunKind::Bare(Algo::Sac), true)?;
-        let (bare_ms, spread) = self.bare();
-        let pct = |schedule| -> anyhow::Result<f64> {
-            let k = kind(schedule);
-            let t = self.runs.iter().rev().find(|(r, _)| *r == k).map(|(_, t)| *t);
-            Ok(t.context("internal: missing run")?.ms_per_step() / bare_ms * 100.0)
-        };
-        let (full, untrained) = (pct(Schedule::Default)?, pct(Schedule::Untrained)?);
-        for (schedule, target) in [
-            (Schedule::Default, Some(115.0)),
-            (Schedule::Untrained, None),
-            (Schedule::Every(4), Some(115.0)),
-            (Schedule::Batch(64), Some(115.0)),
-        ] {
+        let mut pct = Vec::new();
+        for schedule in SCHEDULES {
+            let t = find(&runs, &kind(schedule), 0)?;
+            pct.push(t.ms_per_step() / bare_ms * 100.0);
+            let target = (schedule != Schedule::Untrained).then_some(115.0);
             let what = format!("SAC + DEFENDER {strategy}, {}", schedule.text());
-            let mut row = self.defender_row(&kind(schedule), what, target)?;
-            row.figure = "dynamics";
-            rows.push(row);
+            rows.push(defender_row("dynamics", &t, bare_ms, what, target));
         }
-        let share = if full > 100.0 { 100.0 * (full - untrained) / (full - 100.0) } else { f64::NAN };
+        let (full, untrained) = (pct[0], pct[1]);
+        let share = if full > 100.0 {
+            format!("{:.0}%", 100.0 * (full - untrained) / (full - 100.0))
+        } else {
+            "-".into()
+        };
         rows.push(
             Row::new(
                 "dynamics",
-                format!("dynamics model training, share of {strategy}'s overhead"),
+                format!("dynamics model training in {strategy}'s % Time"),
                 full - untrained,
-                "pp",
+                "points",
             )
             .notes(format!(
-                "% Time {full:.1} with training vs {untrained:.1} without: {share:.0}% of the overhead; \
-                     reference: mean of {spread}"
+                "% Time {full:.1} trained as SPEC vs {untrained:.1} not trained: {share} of the overhead"
             )),
         );
         Ok(rows)
     }
+}
+
+/// The strategies of the `overhead` figure and their % Time targets.
+const OVERHEAD_CASES: [(&str, Mode, f64); 4] = [
+    ("MeanDemoW5/MeanDemoW10", Mode::State, 115.0),
+    ("MeanBothW5/MeanBothW5", Mode::State, 115.0),
+    ("MinBoth/MinTrajW10", Mode::State, 150.0),
+    ("MinBoth/MinTrajW10", Mode::StateAction, 150.0),
+];
+
+/// The strategy and the dynamics-model schedules of the `dynamics` figure (SPEC's first).
+const DYNAMICS_STRATEGY: &str = "MeanDemoW5/MeanDemoW10";
+const SCHEDULES: [Schedule; 4] =
+    [Schedule::Default, Schedule::Untrained, Schedule::Every(4), Schedule::Batch(64)];
+
+fn find(runs: &[(RunKind, u8, Timing)], kind: &RunKind, replica: u8) -> anyhow::Result<Timing> {
+    runs.iter()
+        .find(|(k, r, _)| k == kind && *r == replica)
+        .map(|(_, _, t)| *t)
+        .with_context(|| format!("internal: no training run {kind:?} #{replica}"))
+}
+
+/// The reference (mean ms/step of the two bare SAC runs) and its rows.
+fn bare_rows(runs: &[(RunKind, u8, Timing)], figure: &'static str) -> anyhow::Result<(f64, Vec<Row>)> {
+    let bare = RunKind::Bare(Algo::Sac);
+    let (b0, b1) = (find(runs, &bare, 0)?, find(runs, &bare, 1)?);
+    let bare_ms = 0.5 * (b0.ms_per_step() + b1.ms_per_step());
+    let rows = vec![
+        Row::new(figure, format!("SAC bare on {TASK} (the 100% reference)"), bare_ms, "ms/step").notes(
+            format!(
+                "mean of two identical runs: {:.2} and {:.2} ms/step, {} timed steps each{}",
+                b0.ms_per_step(),
+                b1.ms_per_step(),
+                b0.steps,
+                b0.cores()
+            ),
+        ),
+        Row::new(
+            figure,
+            "SAC bare, second run over first (noise floor)",
+            b1.ms_per_step() / b0.ms_per_step() * 100.0,
+            "% Time",
+        )
+        .notes("same seed, same work: any distance from 100 is the machine's noise"),
+    ];
+    Ok((bare_ms, rows))
+}
+
+fn defender_row(figure: &'static str, t: &Timing, bare_ms: f64, what: String, target: Option<f64>) -> Row {
+    let mut row = Row::new(figure, what, t.ms_per_step() / bare_ms * 100.0, "% Time").notes(format!(
+        "{:.2} ms/step; {} of {} timed steps filtered ({:.0}%), {} episodes{}",
+        t.ms_per_step(),
+        t.filtered,
+        t.steps,
+        100.0 * t.filtered as f64 / t.steps.max(1) as f64,
+        t.episodes,
+        t.cores()
+    ));
+    if let Some(target) = target {
+        row = row.target(Target::AtMost(target));
+    }
+    row
 }
