@@ -11,7 +11,7 @@ RUN_DIR=${1:-runs/main}
 ENV_ID=${ENV_ID:-InvertedDoublePendulum-v5}
 STEPS=${STEPS:-15000}
 SEED=${SEED:-0}
-STRATEGY=${STRATEGY:-MeanDemoW5/MeanDemoW10}
+STRATEGY=${STRATEGY:-MinDemoW5/MinDemoW10}
 EVAL_FREQ=${EVAL_FREQ:-2500}
 
 echo "== building defender (release) =="

@@ -469,7 +469,10 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 filtered |= step.info.filtered;
                 unstable |= step.info.unstable;
                 let eval_freq = self.state.config.eval_freq;
-                if eval_freq > 0 && self.state.total_steps.is_multiple_of(eval_freq) {
+                // The last step of a step budget gets the final evaluation instead.
+                let last_step =
+                    matches!(self.state.config.budget, Budget::Steps(n) if self.state.total_steps >= n);
+                if eval_freq > 0 && self.state.total_steps.is_multiple_of(eval_freq) && !last_step {
                     let n = self.state.config.eval_episodes;
                     self.evaluate(n, false, hooks)?;
                 }
