@@ -51,7 +51,7 @@ environment and the dynamics model's training and cost less).
 
 Examples:
   defender bench                        # everything, a few minutes
-  defender bench --quick                # everything, shorter loops (~30-60 s)
+  defender bench --quick                # everything, shorter loops (~20-40 s)
   defender bench --only dtw-batch,filter
   defender bench --only overhead,dynamics --steps 5000 --threads 1";
 
