@@ -8,26 +8,11 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use defender_report::{
+    CONFIG_FILE, EVAL_FILE, EVAL_HEADER, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary, write_atomic,
+};
 use defender_rl::{EpisodeRecord, EvalRecord};
 use serde::Serialize;
-
-/// Header of `metrics.csv`.
-pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds";
-/// Header of `eval.csv`.
-pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes";
-
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder, synced, renamed.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    let mut file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-    file.write_all(bytes)
-        .and_then(|()| file.sync_all())
-        .with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
-}
 
 /// Formats one `metrics.csv` row.
 pub fn metrics_row(r: &EpisodeRecord) -> String {
@@ -61,8 +46,8 @@ impl RunDir {
         std::fs::create_dir_all(root)
             .with_context(|| format!("cannot create run directory {}", root.display()))?;
         let metrics =
-            Self::start_csv(&root.join("metrics.csv"), METRICS_HEADER, episodes.iter().map(metrics_row))?;
-        let eval = Self::start_csv(&root.join("eval.csv"), EVAL_HEADER, evals.iter().map(eval_row))?;
+            Self::start_csv(&root.join(METRICS_FILE), METRICS_HEADER, episodes.iter().map(metrics_row))?;
+        let eval = Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(eval_row))?;
         Ok(Self { root: root.to_path_buf(), metrics, eval })
     }
 
@@ -86,72 +71,25 @@ impl RunDir {
     pub fn append_episode(&mut self, record: &EpisodeRecord) -> Result<()> {
         writeln!(self.metrics, "{}", metrics_row(record))
             .and_then(|()| self.metrics.flush())
-            .with_context(|| format!("cannot append to {}", self.root.join("metrics.csv").display()))
+            .with_context(|| format!("cannot append to {}", self.root.join(METRICS_FILE).display()))
     }
 
     /// Appends an evaluation to `eval.csv`.
     pub fn append_eval(&mut self, record: &EvalRecord) -> Result<()> {
         writeln!(self.eval, "{}", eval_row(record))
             .and_then(|()| self.eval.flush())
-            .with_context(|| format!("cannot append to {}", self.root.join("eval.csv").display()))
+            .with_context(|| format!("cannot append to {}", self.root.join(EVAL_FILE).display()))
     }
 
     /// Writes `config.toml`.
     pub fn write_config<T: Serialize>(&self, config: &T) -> Result<()> {
         let text = toml::to_string_pretty(config).context("cannot serialise the configuration")?;
-        write_atomic(&self.root.join("config.toml"), text.as_bytes())
+        Ok(write_atomic(self.root.join(CONFIG_FILE), text.as_bytes())?)
     }
 
     /// Writes `summary.json`.
     pub fn write_summary(&self, summary: &Summary) -> Result<()> {
         let text = serde_json::to_vec_pretty(summary).context("cannot serialise the summary")?;
-        write_atomic(&self.root.join("summary.json"), &text)
-    }
-}
-
-/// `summary.json` (docs/run-directory.md).
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct Summary {
-    /// Gymnasium id.
-    pub env: String,
-    /// `sac` or `td3`.
-    pub algo: String,
-    /// The run's seed.
-    pub seed: u64,
-    /// `SAFE/UNSAFE`, or null for a bare run.
-    pub strategy: Option<String>,
-    /// `state` or `state-action`, or null for a bare run.
-    pub mode: Option<String>,
-    /// Mean return of the final evaluation (null until it ran).
-    pub acc_reward: Option<f64>,
-    /// Crashed training episodes / all training episodes x 100.
-    pub crash_pct: f64,
-    /// Filtered training episodes / all training episodes x 100.
-    pub filtered_pct: f64,
-    /// Training episodes finished.
-    pub episodes: u64,
-    /// Environment steps taken.
-    pub steps: u64,
-    /// Steps DEFENDER filtered.
-    pub filtered_steps: u64,
-    /// Wall-clock seconds of training (summed over resumed sessions).
-    pub wall_seconds: f64,
-    /// `steps / wall_seconds`.
-    pub steps_per_second: f64,
-    /// Whether the run finished its budget and final evaluation.
-    pub complete: bool,
-}
-
-impl Summary {
-    /// Fills the counts from the episode records.
-    pub fn count(&mut self, episodes: &[EpisodeRecord]) {
-        let n = episodes.len().max(1) as f64;
-        let crashed = episodes.iter().filter(|r| r.outcome() == defender_rl::Outcome::Crashed).count();
-        let filtered = episodes.iter().filter(|r| r.outcome() == defender_rl::Outcome::Filtered).count();
-        self.episodes = episodes.len() as u64;
-        self.crash_pct = 100.0 * crashed as f64 / n;
-        self.filtered_pct = 100.0 * filtered as f64 / n;
-        self.steps_per_second =
-            if self.wall_seconds > 0.0 { self.steps as f64 / self.wall_seconds } else { 0.0 };
+        Ok(write_atomic(self.root.join(SUMMARY_FILE), &text)?)
     }
 }

@@ -4,37 +4,12 @@
 
 #![allow(clippy::unwrap_used)] // tests may unwrap (helpers are outside #[test] fns)
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use defender_nn::faer::Mat;
 use defender_nn::{Activation, Adam, AdamConfig, Mlp, Parallelism, mse_loss_grad};
 use rand::SeedableRng;
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards to the system allocator, only counting calls.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: alloc_counter::Counting = alloc_counter::Counting;
 
 fn update(
     q: &mut Mlp,
@@ -72,10 +47,10 @@ fn steady_state_updates_do_not_allocate() {
     let y = Mat::<f32>::zeros(256, 1);
     let mut g = Mat::<f32>::zeros(256, 1);
     update(&mut q, &mut q_target, &mut opt, &x, &one, &y, &mut g);
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = alloc_counter::allocations();
     for _ in 0..3 {
         update(&mut q, &mut q_target, &mut opt, &x, &one, &y, &mut g);
     }
-    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    let after = alloc_counter::allocations();
     assert_eq!(after - before, 0, "allocations in 3 steady-state updates");
 }

@@ -1,11 +1,14 @@
-//! Atomic output: write `NAME.tmp`, then rename it to `NAME`, so that a reader (or an interrupted
-//! report) never sees a half-written file.
+//! Atomic output: write `NAME.tmp`, sync it, then rename it to `NAME`, so that a reader (or an
+//! interrupted run or report) never sees a half-written file.
 
+use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Result, io_err};
 
-/// Writes `bytes` to `path` atomically (through `path` + `.tmp` in the same directory).
+/// Writes `bytes` to `path` atomically (through `path` + `.tmp` in the same directory, synced to
+/// disk before the rename, so that a crash leaves either the old file or the new one).
 ///
 /// # Errors
 ///
@@ -16,7 +19,8 @@ pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
     let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
     name.push(".tmp");
     tmp.set_file_name(name);
-    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
+    let mut file = File::create(&tmp).map_err(io_err(&tmp))?;
+    file.write_all(bytes).and_then(|()| file.sync_all()).map_err(io_err(&tmp))?;
     std::fs::rename(&tmp, path).map_err(io_err(path))
 }
 

@@ -4,7 +4,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::csv::CsvFile;
 use crate::error::{ReportError, Result};
@@ -139,8 +139,9 @@ pub struct RunConfig {
     pub filter: Option<Filter>,
 }
 
-/// `summary.json`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+/// `summary.json`: written by `defender train` (early with `complete: false`, then after every
+/// episode and at the end), read and validated by [`Run::load`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// Gymnasium id.
     pub env: String,
@@ -152,8 +153,9 @@ pub struct Summary {
     pub strategy: Option<String>,
     /// `state` or `state-action`, `None` for a bare run.
     pub mode: Option<String>,
-    /// Mean return of the final evaluation (the paper's Acc Reward).
-    pub acc_reward: f64,
+    /// Mean return of the final evaluation (the paper's Acc Reward); `None` (null) until it ran.
+    /// [`Run::load`] accepts a complete run only with a finite value, see [`Run::acc_reward`].
+    pub acc_reward: Option<f64>,
     /// Crashed training episodes / all training episodes x 100.
     pub crash_pct: f64,
     /// Filtered training episodes / all training episodes x 100.
@@ -170,6 +172,25 @@ pub struct Summary {
     pub steps_per_second: f64,
     /// `false` while the run is in progress or after it was stopped.
     pub complete: bool,
+}
+
+impl Summary {
+    /// Sets `episodes`, `crash_pct`, `filtered_pct` and `steps_per_second` from the outcomes of the
+    /// training episodes and the `steps` and `wall_seconds` already set, as [`Run::load`] checks them.
+    pub fn count(&mut self, outcomes: impl IntoIterator<Item = Outcome>) {
+        let (mut n, mut crashed, mut filtered) = (0u64, 0u64, 0u64);
+        for outcome in outcomes {
+            n += 1;
+            crashed += u64::from(outcome == Outcome::Crashed);
+            filtered += u64::from(outcome == Outcome::Filtered);
+        }
+        let pct = |k: u64| if n == 0 { 0.0 } else { 100.0 * k as f64 / n as f64 };
+        self.episodes = n;
+        self.crash_pct = pct(crashed);
+        self.filtered_pct = pct(filtered);
+        self.steps_per_second =
+            if self.wall_seconds > 0.0 { self.steps as f64 / self.wall_seconds } else { 0.0 };
+    }
 }
 
 /// One row of `metrics.csv`: a training episode.
@@ -246,6 +267,12 @@ impl Run {
         Ok(run)
     }
 
+    /// The paper's Acc Reward: the mean return of the final evaluation. [`Run::load`] refuses a
+    /// run without a finite one, so this is never NaN for a loaded run.
+    pub fn acc_reward(&self) -> f64 {
+        self.summary.acc_reward.unwrap_or(f64::NAN)
+    }
+
     /// Training episodes that crashed.
     pub fn crashed(&self) -> usize {
         self.episodes.iter().filter(|e| e.outcome == Outcome::Crashed).count()
@@ -306,10 +333,11 @@ impl Run {
             });
         };
         let tolerance = 0.01 + 1e-6 * last_eval.mean_return.abs();
-        if (s.acc_reward - last_eval.mean_return).abs() > tolerance {
+        if (self.acc_reward() - last_eval.mean_return).abs() > tolerance {
             return Err(invalid(format!(
                 "acc_reward = {} but the last row of eval.csv has mean_return {}",
-                s.acc_reward, last_eval.mean_return
+                self.acc_reward(),
+                last_eval.mean_return
             )));
         }
         Ok(())
@@ -343,8 +371,15 @@ fn parse_summary(dir: &Path, path: &Path, text: &str) -> Result<Summary> {
         }
     }
     let summary: Summary = serde_json::from_value(value).map_err(json_err)?;
+    let Some(acc_reward) = summary.acc_reward else {
+        return Err(ReportError::Invalid {
+            path: path.to_path_buf(),
+            message: "acc_reward is missing or null, but a complete run ends with its final evaluation"
+                .into(),
+        });
+    };
     let finite = [
-        ("acc_reward", summary.acc_reward),
+        ("acc_reward", acc_reward),
         ("crash_pct", summary.crash_pct),
         ("filtered_pct", summary.filtered_pct),
         ("wall_seconds", summary.wall_seconds),

@@ -100,7 +100,7 @@ impl Table {
                 }
             }
             let (Some(acc_reward), Some(crash_pct), Some(filtered_pct), Some(wall_seconds)) = (
-                Stat::of(&values(&|r| r.summary.acc_reward)),
+                Stat::of(&values(&|r| r.acc_reward())),
                 Stat::of(&values(&|r| r.summary.crash_pct)),
                 Stat::of(&values(&|r| r.summary.filtered_pct)),
                 Stat::of(&values(&|r| r.summary.wall_seconds)),

@@ -80,9 +80,13 @@ fn bad_json_and_toml_are_named() {
     let (_root, dir, err) = broken(|d| replace(&d.join("summary.json"), "\"acc_reward\": 100.0,", ""));
     assert!(
         err.to_string()
-            .starts_with(&format!("{}: missing field `acc_reward`", dir.join("summary.json").display())),
+            .starts_with(&format!("{}: acc_reward is missing or null", dir.join("summary.json").display())),
         "{err}"
     );
+    let (_root, _dir, err) =
+        broken(|d| replace(&d.join("summary.json"), "\"acc_reward\": 100.0", "\"acc_reward\": null"));
+    assert!(matches!(err, ReportError::Invalid { .. }), "{err:?}");
+    assert!(err.to_string().contains("acc_reward is missing or null"), "{err}");
     let (_root, _dir, err) =
         broken(|d| replace(&d.join("summary.json"), "\"complete\": true", "\"complete\": \"yes\""));
     assert!(err.to_string().contains("\"complete\" must be true or false"), "{err}");

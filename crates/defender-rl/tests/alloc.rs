@@ -1,38 +1,18 @@
 //! No allocation per transition or per update once the buffers exist (single-threaded
 //! networks: faer's parallel GEMM allocates task objects, see defender-nn's alloc test).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicU64, Ordering};
-
 use defender_nn::Parallelism;
 use defender_rl::{Agent, Sac, SacConfig, Td3, Td3Config, Transition};
 
-struct Counting;
-
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-// SAFETY: forwards to the system allocator; only counts.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: alloc_counter::Counting = alloc_counter::Counting;
 
 /// Acts, stores and updates `steps` times; returns the allocations counted.
 fn cycle(agent: &mut dyn Agent, steps: usize) -> u64 {
     let obs = [0.1, -0.2, 0.3];
     let next = [0.2, -0.1, 0.0];
     let mut action = [0.0f32; 2];
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = alloc_counter::allocations();
     for i in 0..steps {
         agent.act(&obs, false, &mut action).expect("act");
         let t = Transition {
@@ -47,7 +27,7 @@ fn cycle(agent: &mut dyn Agent, steps: usize) -> u64 {
         agent.update().expect("update");
         agent.act(&obs, true, &mut action).expect("act");
     }
-    ALLOCATIONS.load(Ordering::Relaxed) - before
+    alloc_counter::allocations() - before
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! The online filter, the dynamics model and the ablation on Hopper-v5-shaped data.
 //!
-//! Real Hopper demonstrations do not exist yet, so the data are synthetic trajectories of the
-//! same shape: smooth random walks (velocity with momentum) in 11 dimensions, 50 safe and 50
+//! The data are synthetic trajectories of Hopper's shape (`defender::synthetic`, so that the
+//! figures do not depend on a particular trained agent): smooth random walks (velocity with momentum) in 11 dimensions, 50 safe and 50
 //! unsafe demonstrations of 1000 transitions each (1001 observations, the longest Hopper allows),
 //! and a 1000-step agent episode. DTW cost depends only on shapes, not on values, except for
 //! the `Equal` window, which this bench does not use.
@@ -16,43 +16,30 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use defender::{
     Ablation, CostOptions, Demonstrations, DynamicsConfig, DynamicsModel, EpisodeSet, Filter, Meta, Mode,
     Strategy,
+    synthetic::{WalkSet, random_walk},
 };
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 
 const OBS: usize = 11;
 const ACT: usize = 3;
 
-/// One smooth random walk of `n` transitions: (obs `(n + 1) * 11`, act `n * 3`).
-fn walk(rng: &mut ChaCha8Rng, n: usize) -> (Vec<f32>, Vec<f32>) {
-    let mut s: Vec<f32> = (0..OBS).map(|_| rng.random_range(-1.0..1.0)).collect();
-    let mut v = [0.0f32; OBS];
-    let (mut obs, mut act) = (Vec::with_capacity((n + 1) * OBS), Vec::with_capacity(n * ACT));
-    obs.extend_from_slice(&s);
-    for _ in 0..n {
-        for k in 0..OBS {
-            v[k] = 0.9 * v[k] + 0.1 * rng.random_range(-1.0f32..1.0);
-            s[k] += 0.05 * v[k];
-        }
-        obs.extend_from_slice(&s);
-        act.extend((0..ACT).map(|_| rng.random_range(-1.0f32..1.0)));
-    }
-    (obs, act)
+/// 2 x `per_group` demonstrations of `len` transitions, safe and unsafe alike.
+fn demos(seed: u64, per_group: usize, len: usize) -> EpisodeSet {
+    WalkSet { obs_dim: OBS, act_dim: ACT, per_group, len, unsafe_offset: 0.0 }
+        .build(seed, Meta::default())
+        .unwrap()
 }
 
-fn demos(rng: &mut ChaCha8Rng, per_group: usize, len: usize) -> EpisodeSet {
-    let mut set = EpisodeSet::new(OBS, ACT, Meta::default()).unwrap();
-    for i in 0..2 * per_group {
-        let (obs, act) = walk(rng, len);
-        set.push_episode(&obs, &act, &vec![1.0; len], i % 2 == 1).unwrap();
-    }
-    set
+/// One agent episode of `n` transitions.
+fn walk(rng: &mut ChaCha8Rng, n: usize) -> (Vec<f32>, Vec<f32>) {
+    random_walk(rng, n, OBS, ACT)
 }
 
 fn bench_filter(c: &mut Criterion) {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let set = demos(&mut rng, 50, 1000);
+    let set = demos(0, 50, 1000);
     let (obs, act) = walk(&mut rng, 1000);
     let obs64: Vec<f64> = obs.iter().map(|&v| f64::from(v)).collect();
     let act64: Vec<f64> = act.iter().map(|&v| f64::from(v)).collect();
@@ -124,7 +111,7 @@ fn bench_dynamics(c: &mut Criterion) {
 
 fn bench_ablation(c: &mut Criterion) {
     let mut rng = ChaCha8Rng::seed_from_u64(2);
-    let set = demos(&mut rng, 10, 200);
+    let set = demos(2, 10, 200);
     let mut episodes = EpisodeSet::new(OBS, ACT, Meta::default()).unwrap();
     for i in 0..4 {
         let (obs, act) = walk(&mut rng, 200);

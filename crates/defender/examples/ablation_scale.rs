@@ -6,38 +6,20 @@
 
 use std::time::Instant;
 
+use defender::synthetic::{WalkSet, random_walk};
 use defender::{Ablation, CostOptions, Demonstrations, EpisodeSet, Meta, Mode, Strategy, Window};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-fn walk(rng: &mut ChaCha8Rng, n: usize) -> (Vec<f32>, Vec<f32>) {
-    let mut s: Vec<f32> = (0..11).map(|_| rng.random_range(-1.0..1.0)).collect();
-    let mut v = [0.0f32; 11];
-    let (mut obs, mut act) = (s.clone(), Vec::new());
-    for _ in 0..n {
-        for k in 0..11 {
-            v[k] = 0.9 * v[k] + 0.1 * rng.random_range(-1.0f32..1.0);
-            s[k] += 0.05 * v[k];
-        }
-        obs.extend_from_slice(&s);
-        act.extend((0..3).map(|_| rng.random_range(-1.0f32..1.0)));
-    }
-    (obs, act)
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let episodes: usize = args.get(1).map_or(Ok(2), |s| s.parse())?;
     let len: usize = args.get(2).map_or(Ok(1000), |s| s.parse())?;
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let mut demos = EpisodeSet::new(11, 3, Meta::default())?;
-    for i in 0..100 {
-        let (o, a) = walk(&mut rng, 1000);
-        demos.push_episode(&o, &a, &vec![1.0; 1000], i % 2 == 1)?;
-    }
+    let demos = WalkSet::HOPPER.build(0, Meta::default())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
     let mut recorded = EpisodeSet::new(11, 3, Meta::default())?;
     for i in 0..episodes {
-        let (o, a) = walk(&mut rng, len);
+        let (o, a) = random_walk(&mut rng, len, 11, 3);
         recorded.push_episode(&o, &a, &vec![1.0; len], i % 2 == 0)?;
     }
     let prepared = Demonstrations::new(&demos, Mode::State, CostOptions::default())?;

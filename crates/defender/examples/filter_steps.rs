@@ -5,40 +5,23 @@
 
 use std::time::Instant;
 
-use defender::{CostOptions, Demonstrations, EpisodeSet, Filter, Meta, Mode, Strategy};
-use rand::{Rng, SeedableRng};
+use defender::synthetic::{WalkSet, random_walk};
+use defender::{CostOptions, Demonstrations, Filter, Meta, Mode, Strategy};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-fn walk(rng: &mut ChaCha8Rng, n: usize, obs_dim: usize, act_dim: usize) -> (Vec<f32>, Vec<f32>) {
-    let mut s: Vec<f32> = (0..obs_dim).map(|_| rng.random_range(-1.0..1.0)).collect();
-    let mut v = vec![0.0f32; obs_dim];
-    let (mut obs, mut act) = (s.clone(), Vec::new());
-    for _ in 0..n {
-        for k in 0..obs_dim {
-            v[k] = 0.9 * v[k] + 0.1 * rng.random_range(-1.0f32..1.0);
-            s[k] += 0.05 * v[k];
-        }
-        obs.extend_from_slice(&s);
-        act.extend((0..act_dim).map(|_| rng.random_range(-1.0f32..1.0)));
-    }
-    (obs, act)
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let strategy: Strategy = args.get(1).map_or("MeanDemoW5/MeanDemoW10", String::as_str).parse()?;
     let mode: Mode = args.get(2).map_or("state", String::as_str).parse()?;
     let episodes: usize = args.get(3).map_or(Ok(5), |s| s.parse())?;
-    let (obs_dim, act_dim, len) = (11, 3, 1000);
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let mut set = EpisodeSet::new(obs_dim, act_dim, Meta::default())?;
-    for i in 0..100 {
-        let (o, a) = walk(&mut rng, len, obs_dim, act_dim);
-        set.push_episode(&o, &a, &vec![1.0; len], i % 2 == 1)?;
-    }
+    let shape = WalkSet::HOPPER;
+    let (obs_dim, act_dim, len) = (shape.obs_dim, shape.act_dim, shape.len);
+    let set = shape.build(0, Meta::default())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
     let demos = Demonstrations::new(&set, mode, CostOptions::default())?;
     let mut filter = Filter::new(&demos, strategy)?;
-    let (obs, act) = walk(&mut rng, len, obs_dim, act_dim);
+    let (obs, act) = random_walk(&mut rng, len, obs_dim, act_dim);
     let obs: Vec<f64> = obs.iter().map(|&v| f64::from(v)).collect();
     let act: Vec<f64> = act.iter().map(|&v| f64::from(v)).collect();
     let mut per_step = vec![Vec::new(); len];

@@ -14,6 +14,7 @@ mod npz;
 mod recorder;
 mod score;
 mod strategy;
+pub mod synthetic;
 mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};

@@ -4,45 +4,14 @@
 
 #![allow(clippy::unwrap_used)] // test helpers fail loudly on purpose
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use defender::{
     CostOptions, Demonstrations, DynamicsConfig, DynamicsModel, EpisodeSet, Filter, Meta, Mode, Strategy,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only counts.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
+static GLOBAL: alloc_counter::Counting = alloc_counter::Counting;
 
 fn random_set(rng: &mut ChaCha8Rng) -> EpisodeSet {
     let mut set = EpisodeSet::new(4, 2, Meta::default()).unwrap();
@@ -73,12 +42,16 @@ fn filter_push_allocates_nothing_once_warm() {
                     f.push(&obs[t * 4..(t + 1) * 4], &act[t * 2..(t + 1) * 2]).unwrap();
                 }
             };
-            let cold = allocations();
+            let cold = alloc_counter::allocations();
             episode(&mut filter);
-            assert!(allocations() > cold, "the counter sees the first episode's growth");
-            let before = allocations();
+            assert!(alloc_counter::allocations() > cold, "the counter sees the first episode's growth");
+            let before = alloc_counter::allocations();
             episode(&mut filter);
-            assert_eq!(allocations() - before, 0, "{name} ({mode}) allocated during a warm episode");
+            assert_eq!(
+                alloc_counter::allocations() - before,
+                0,
+                "{name} ({mode}) allocated during a warm episode"
+            );
         }
     }
 }
@@ -105,10 +78,10 @@ fn dynamics_observe_allocates_nothing_once_warm() {
     for _ in 0..5 {
         step(&mut model, &mut rng);
     }
-    let before = allocations();
+    let before = alloc_counter::allocations();
     for _ in 0..50 {
         step(&mut model, &mut rng);
     }
-    assert_eq!(allocations() - before, 0, "observe/predict allocated once warm");
+    assert_eq!(alloc_counter::allocations() - before, 0, "observe/predict allocated once warm");
     assert_eq!(model.gradient_steps(), 55);
 }

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use defender::synthetic::{WalkSet, random_walk as walk};
 use defender::{
     CostOptions, DefenderConfig, DefenderEnv, Demonstrations, DynamicsConfig, DynamicsModel, EpisodeSet,
     Filter, Meta, Mode, Strategy,
@@ -366,22 +367,6 @@ fn median(values: &mut [f64]) -> f64 {
     }
 }
 
-/// A smooth random walk (velocity with momentum): `n + 1` observations and `n` actions.
-fn walk(rng: &mut ChaCha8Rng, n: usize, obs_dim: usize, act_dim: usize) -> (Vec<f32>, Vec<f32>) {
-    let mut s: Vec<f32> = (0..obs_dim).map(|_| rng.random_range(-1.0..1.0)).collect();
-    let mut v = vec![0.0f32; obs_dim];
-    let (mut obs, mut act) = (s.clone(), Vec::with_capacity(n * act_dim));
-    for _ in 0..n {
-        for k in 0..obs_dim {
-            v[k] = 0.9 * v[k] + 0.1 * rng.random_range(-1.0f32..1.0);
-            s[k] += 0.05 * v[k];
-        }
-        obs.extend_from_slice(&s);
-        act.extend((0..act_dim).map(|_| rng.random_range(-1.0f32..1.0)));
-    }
-    (obs, act)
-}
-
 // ---------------------------------------------------------------------------------------------
 // Demonstrations.
 
@@ -391,25 +376,17 @@ struct DemoSet {
 }
 
 fn synthetic_demos() -> anyhow::Result<DemoSet> {
-    let (obs_dim, act_dim, len) = (11, 3, 1000);
-    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
+    // Far from anything Hopper visits: the filter never fires, so every step of a training run
+    // pays the environment step, the filter and the dynamics model's training (the upper bound of
+    // the overhead). DTW's cost does not depend on values.
+    let shape = WalkSet { per_group: DEMOS_PER_GROUP, unsafe_offset: UNSAFE_OFFSET, ..WalkSet::HOPPER };
+    let len = shape.len;
     let meta = Meta {
         env_id: Some(TASK.into()),
         provenance: Some("defender bench (synthetic)".into()),
         ..Meta::default()
     };
-    let mut set = EpisodeSet::new(obs_dim, act_dim, meta)?;
-    for i in 0..2 * DEMOS_PER_GROUP {
-        let (mut o, a) = walk(&mut rng, len, obs_dim, act_dim);
-        let crashed = i % 2 == 1;
-        if crashed {
-            // Far from anything Hopper visits: the filter never fires, so every step of a
-            // training run pays the environment step, the filter and the dynamics model's
-            // training (the upper bound of the overhead). DTW's cost does not depend on values.
-            o.iter_mut().for_each(|v| *v += UNSAFE_OFFSET);
-        }
-        set.push_episode(&o, &a, &vec![1.0; len], crashed)?;
-    }
+    let set = shape.build(SEED, meta)?;
     Ok(DemoSet {
         set,
         label: format!(

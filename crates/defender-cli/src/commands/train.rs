@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use defender_report::Summary;
 use defender_rl::{
     Agent, Algo, AlgoConfig, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, Outcome, RunEnd,
     Trainer, TrainerConfig, Transition,
@@ -13,7 +14,7 @@ use defender_rl::{
 use serde::{Deserialize, Serialize};
 
 use crate::progress;
-use crate::run_dir::{RunDir, Summary};
+use crate::run_dir::RunDir;
 use crate::setup::{self, DefenderSection, TrainingRecorder};
 
 /// Arguments of `defender train`.
@@ -407,7 +408,11 @@ impl TrainHooks {
             steps_per_second: 0.0,
             complete: final_eval.is_some(),
         };
-        summary.count(trainer.episodes());
+        summary.count(trainer.episodes().iter().map(|r| match r.outcome() {
+            Outcome::Crashed => defender_report::Outcome::Crashed,
+            Outcome::Filtered => defender_report::Outcome::Filtered,
+            Outcome::Truncated => defender_report::Outcome::Truncated,
+        }));
         self.run_dir.write_summary(&summary)?;
         Ok(summary)
     }
