@@ -87,8 +87,9 @@ struct Band {
 struct Chart {
     title: String,
     y_label: String,
-    /// The y axis starts here at the lowest (0 for percentages).
-    y_floor: Option<f64>,
+    /// The y axis starts exactly here (0 for percentages: a rate is read against zero, and
+    /// two plots of the same kind compare at a glance).
+    y_from: Option<f64>,
     markers: bool,
     bands: Vec<Band>,
 }
@@ -181,7 +182,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             let chart = Chart {
                 title: title(env, algo, *budget, kind),
                 y_label: y_label(kind, options),
-                y_floor: (kind == PlotKind::CrashRate).then_some(0.0),
+                y_from: (kind == PlotKind::CrashRate).then_some(0.0),
                 markers: kind == PlotKind::Evaluation,
                 bands,
             };
@@ -399,8 +400,8 @@ where
         0.05,
         0.35,
     );
-    if let Some(floor) = chart.y_floor {
-        y0 = y0.max(floor);
+    if let Some(from) = chart.y_from {
+        y0 = from;
     }
     // As many decimals as the axis needs: 4000, 12.5, 0.25.
     let y_decimals = match y1 - y0 {

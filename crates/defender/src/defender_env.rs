@@ -2,6 +2,7 @@
 //! Any agent trains on it unchanged: it sees an [`Env`].
 
 use std::path::{Path, PathBuf};
+use std::sync::MutexGuard;
 
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -10,6 +11,7 @@ use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 
 use crate::demonstrations::{CostOptions, Demonstrations};
 use crate::dynamics::{DynamicsConfig, DynamicsModel};
+use crate::dynamics_worker::TrainedDynamics;
 use crate::episode_set::EpisodeSet;
 use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
@@ -95,7 +97,7 @@ pub struct DefenderStats {
 pub struct DefenderEnv<E> {
     inner: E,
     filter: Filter,
-    dynamics: DynamicsModel,
+    dynamics: TrainedDynamics,
     config: DefenderConfig,
     r_task: f64,
     obs: Vec<f64>,
@@ -110,11 +112,11 @@ pub struct DefenderEnv<E> {
 impl<E: Env> DefenderEnv<E> {
     /// Wraps `inner` with the demonstrations `demos` (both groups needed; the first
     /// `config.num_demos` of each are used). The dynamics model's weights and sampling RNG are
-    /// drawn from `rng`.
+    /// drawn from `rng`; with `config.dynamics.background` its thread starts here.
     ///
     /// # Errors
     /// Demonstrations that do not fit the environment (dimensions, `meta.env_id`), a missing group,
-    /// too few demonstrations, or an invalid configuration.
+    /// too few demonstrations, an invalid configuration, or a thread that cannot start.
     pub fn new<R: Rng + ?Sized>(
         inner: E,
         demos: &EpisodeSet,
@@ -138,7 +140,8 @@ impl<E: Env> DefenderEnv<E> {
             None => f64::from(prepared.min_reward()),
         };
         let filter = Filter::new(&prepared, config.strategy)?;
-        let dynamics = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
+        let model = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
+        let dynamics = TrainedDynamics::new(model, config.dynamics.background)?;
         Ok(Self {
             inner,
             filter,
@@ -190,26 +193,30 @@ impl<E: Env> DefenderEnv<E> {
         &self.filter
     }
 
-    /// The dynamics model (its prediction error, counters).
-    pub fn dynamics(&self) -> &DynamicsModel {
-        &self.dynamics
-    }
-
-    /// The dynamics model, mutably (threading, checkpoint restore).
-    pub fn dynamics_mut(&mut self) -> &mut DynamicsModel {
-        &mut self.dynamics
+    /// The dynamics model (its prediction error, counters; [`DynamicsModel::set_parallelism`]),
+    /// once it has learnt from every real step so far (with `background`, this waits for its
+    /// thread). Release the guard before the next step.
+    ///
+    /// # Errors
+    /// With `background`: the model's thread stopped (it panicked).
+    pub fn dynamics(&self) -> Result<MutexGuard<'_, DynamicsModel>> {
+        self.dynamics.model()
     }
 
     /// Replaces the dynamics model (e.g. by one restored from a checkpoint).
     ///
     /// # Errors
-    /// Its dimensions differ from the environment's.
+    /// Its dimensions differ from the environment's; or as [`DefenderEnv::dynamics`].
     pub fn set_dynamics(&mut self, model: DynamicsModel) -> Result<()> {
-        let probe = vec![0.0; self.obs.len()];
-        let act = vec![0.0; self.inner.action_space().dim()];
-        let mut m = model;
-        m.predict(&probe, &act)?;
-        self.dynamics = m;
+        let act_dim = self.inner.action_space().dim();
+        if (model.obs_dim(), model.act_dim()) != (self.obs.len(), act_dim) {
+            return Err(DefenderError::Mismatch {
+                what: "dynamics model dimensions (obs, act)".into(),
+                expected: format!("({}, {act_dim})", self.obs.len()),
+                got: format!("({}, {})", model.obs_dim(), model.act_dim()),
+            });
+        }
+        *self.dynamics.model()? = model;
         Ok(())
     }
 
@@ -292,7 +299,10 @@ impl<E: Env> Env for DefenderEnv<E> {
         self.episode_steps += 1;
         if decision.filtered {
             // s', r, done = theta(s, a), R_task, True: the action never reaches the environment.
-            self.dynamics.predict_into(&self.obs, action, &mut self.pred).map_err(env_error)?;
+            self.dynamics
+                .model()
+                .and_then(|mut model| model.predict_into(&self.obs, action, &mut self.pred))
+                .map_err(env_error)?;
             self.stats.filtered_steps += 1;
             self.end_episode(Outcome::Filtered);
             return Ok(Step {
@@ -326,7 +336,8 @@ impl<E: Env> Env for DefenderEnv<E> {
     fn save_state(&self, dir: &Path) -> defender_rl::Result<()> {
         let state_err = |path: PathBuf, reason: String| EnvError::State { path, reason };
         self.dynamics
-            .save(dir.join("dynamics"))
+            .model()
+            .and_then(|model| model.save(dir.join("dynamics")))
             .map_err(|e| state_err(dir.join("dynamics"), e.to_string()))?;
         let stats_path = dir.join("defender_stats.json");
         let text = serde_json::to_vec_pretty(&self.stats)

@@ -46,6 +46,10 @@ pub struct DynamicsConfig {
     pub gradient_steps: usize,
     /// Weight of the newest prediction error in its exponential moving average.
     pub error_ema_alpha: f64,
+    /// [`DefenderEnv`](crate::DefenderEnv) trains the model on a thread of its own, concurrently
+    /// with the agent's update (another core), with the same result bit for bit; off by default
+    /// (one run, one thread). The model alone ignores it.
+    pub background: bool,
 }
 
 impl Default for DynamicsConfig {
@@ -59,6 +63,7 @@ impl Default for DynamicsConfig {
             train_freq: 1,
             gradient_steps: 1,
             error_ema_alpha: 0.01,
+            background: false,
         }
     }
 }
@@ -262,6 +267,16 @@ impl DynamicsModel {
         self.net.set_parallelism(parallelism);
     }
 
+    /// Observation dimension.
+    pub fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    /// Action dimension.
+    pub fn act_dim(&self) -> usize {
+        self.act_dim
+    }
+
     /// Real transitions held (at most `buffer_size`).
     pub fn buffer_len(&self) -> usize {
         self.len
@@ -327,6 +342,32 @@ impl DynamicsModel {
         Ok(out)
     }
 
+    /// The checks [`DynamicsModel::observe`] makes on a transition, for a model of these
+    /// dimensions: lengths, and finite values only.
+    ///
+    /// # Errors
+    /// As [`DynamicsModel::observe`].
+    pub(crate) fn check_transition(
+        obs_dim: usize,
+        act_dim: usize,
+        obs: &[f64],
+        action: &[f64],
+        next_obs: &[f64],
+    ) -> Result<()> {
+        let lengths = [
+            ("observation length (dynamics model)", obs_dim, obs.len()),
+            ("action length (dynamics model)", act_dim, action.len()),
+            ("next observation length (dynamics model)", obs_dim, next_obs.len()),
+        ];
+        if let Some(&(what, expected, got)) = lengths.iter().find(|(_, e, g)| e != g) {
+            return Err(mismatch(what, expected, got));
+        }
+        if obs.iter().chain(action).chain(next_obs).any(|v| !v.is_finite()) {
+            return Err(DefenderError::Config("dynamics: a transition with NaN or infinite values".into()));
+        }
+        Ok(())
+    }
+
     fn check(&self, obs: usize, act: usize) -> Result<()> {
         if obs != self.obs_dim {
             return Err(mismatch("observation length (dynamics model)", self.obs_dim, obs));
@@ -344,13 +385,7 @@ impl DynamicsModel {
     /// # Errors
     /// Wrong lengths or non-finite values; nothing is stored then.
     pub fn observe(&mut self, obs: &[f64], action: &[f64], next_obs: &[f64]) -> Result<()> {
-        self.check(obs.len(), action.len())?;
-        if next_obs.len() != self.obs_dim {
-            return Err(mismatch("next observation length (dynamics model)", self.obs_dim, next_obs.len()));
-        }
-        if obs.iter().chain(action).chain(next_obs).any(|v| !v.is_finite()) {
-            return Err(DefenderError::Config("dynamics: a transition with NaN or infinite values".into()));
-        }
+        Self::check_transition(self.obs_dim, self.act_dim, obs, action, next_obs)?;
         // Held-out error: predict before this transition influences anything.
         let mut se = 0.0f64;
         {

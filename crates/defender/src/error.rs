@@ -82,6 +82,9 @@ pub enum DefenderError {
     /// A configuration value out of its range.
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// The thread that trains the dynamics model in the background stopped or failed.
+    #[error("dynamics model thread: {0}")]
+    Worker(String),
     /// A checkpoint that cannot be restored.
     #[error("checkpoint {path}: {what}")]
     Checkpoint {

@@ -6,6 +6,7 @@ mod defender_env;
 mod demonstrations;
 pub mod direct;
 mod dynamics;
+mod dynamics_worker;
 mod episode_set;
 mod error;
 mod filter;

@@ -118,7 +118,7 @@ fn a_filtered_step_never_reaches_the_environment() {
     assert_eq!(real as u64, env.stats().real_steps, "the filtered step did not step the environment");
     assert_eq!(env.stats().steps, env.stats().real_steps + 1);
     assert_eq!(
-        env.dynamics().real_steps(),
+        env.dynamics().unwrap().real_steps(),
         env.stats().real_steps,
         "the model saw every real transition, only those"
     );
@@ -266,6 +266,76 @@ fn wraps_a_real_mujoco_hopper_and_filters() {
     assert_eq!(st.filtered_episodes + st.crashed_episodes + st.truncated_episodes, 10);
     assert!(st.filtered_episodes >= 1, "some random episodes are filtered: {st:?}");
     assert_eq!(st.filtered_steps, st.filtered_episodes);
-    assert_eq!(env.dynamics().real_steps(), st.real_steps);
-    assert!(env.dynamics().prediction_error().count > 0);
+    assert_eq!(env.dynamics().unwrap().real_steps(), st.real_steps);
+    assert!(env.dynamics().unwrap().prediction_error().count > 0);
+}
+
+/// Random steps on the line world: every step's result, in order, and the model's final state.
+fn line_trace(background: bool, steps: usize) -> (Vec<(Vec<f64>, f64, bool, bool)>, Vec<f64>, u64, u32) {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut cfg = config("MeanBothW5/MeanBothW5");
+    cfg.dynamics.background = background;
+    let mut env = DefenderEnv::new(Line::new(), &line_demos(), cfg, &mut rng).unwrap();
+    let mut trace = Vec::new();
+    env.reset(None).unwrap();
+    for _ in 0..steps {
+        let s = env.step(&[rng.random_range(-0.2..0.6)]).unwrap();
+        trace.push((s.obs.clone(), s.reward, s.terminated, s.info.filtered));
+        if s.done() {
+            env.reset(None).unwrap();
+        }
+    }
+    let mut model = env.dynamics().unwrap();
+    assert_eq!(model.real_steps(), env.stats().real_steps);
+    let probe = model.predict(&[0.5, 1.0], &[0.1]).unwrap();
+    (trace, probe, model.gradient_steps(), model.last_loss().to_bits())
+}
+
+/// Training the dynamics model on its own thread changes when the work is done, not what it
+/// computes: every step (the filtered ones return its predictions) and the final model are
+/// bit for bit those of inline training.
+#[test]
+fn a_background_dynamics_model_equals_the_inline_one() {
+    let (inline, background) = (line_trace(false, 400), line_trace(true, 400));
+    assert!(inline.0.iter().any(|s| s.3), "some steps are filtered, so predictions are compared");
+    assert!(inline.2 > 100, "the model trained: {} gradient steps", inline.2);
+    assert_eq!(inline, background);
+}
+
+/// A background model is checkpointed once its thread has caught up, and restores into a
+/// background environment that goes on exactly as the uninterrupted one.
+#[test]
+fn a_background_dynamics_model_checkpoints_and_resumes() {
+    let run = |stop_at: Option<usize>| {
+        let dir = tempfile::tempdir().unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut cfg = config("MeanBothW5/MeanBothW5");
+        cfg.dynamics.background = true;
+        let make =
+            |rng: &mut ChaCha8Rng| DefenderEnv::new(Line::new(), &line_demos(), cfg.clone(), rng).unwrap();
+        let mut env = make(&mut rng);
+        let mut actions = ChaCha8Rng::seed_from_u64(6);
+        let mut returns = Vec::new();
+        for episode in 0..30 {
+            if stop_at == Some(episode) {
+                env.save_state(dir.path()).unwrap();
+                drop(env);
+                env = make(&mut ChaCha8Rng::seed_from_u64(99)); // other weights, then restored
+                env.load_state(dir.path()).unwrap();
+            }
+            env.reset(None).unwrap();
+            let mut ret = 0.0;
+            loop {
+                let s = env.step(&[actions.random_range(-0.2..0.6)]).unwrap();
+                ret += s.reward;
+                if s.done() {
+                    break;
+                }
+            }
+            returns.push(ret.to_bits());
+        }
+        let probe = env.dynamics().unwrap().predict(&[0.5, 1.0], &[0.1]).unwrap();
+        (returns, probe, env.stats())
+    };
+    assert_eq!(run(None), run(Some(12)));
 }
