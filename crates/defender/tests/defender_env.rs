@@ -270,8 +270,12 @@ fn wraps_a_real_mujoco_hopper_and_filters() {
     assert!(env.dynamics().unwrap().prediction_error().count > 0);
 }
 
-/// Random steps on the line world: every step's result, in order, and the model's final state.
-fn line_trace(background: bool, steps: usize) -> (Vec<(Vec<f64>, f64, bool, bool)>, Vec<f64>, u64, u32) {
+/// One step's observation, reward, `terminated` and `filtered`.
+type StepTrace = (Vec<f64>, f64, bool, bool);
+
+/// Random steps on the line world: every step's result, in order, and the model's final state
+/// (a prediction, gradient steps, last loss).
+fn line_trace(background: bool, steps: usize) -> (Vec<StepTrace>, Vec<f64>, u64, u32) {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut cfg = config("MeanBothW5/MeanBothW5");
     cfg.dynamics.background = background;
