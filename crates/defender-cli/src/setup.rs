@@ -89,6 +89,8 @@ pub fn shipped_demos(env_id: &str) -> PathBuf {
     let data = std::env::var_os("DEFENDER_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data")));
+    // Canonical when it exists, so that config.toml records a readable path.
+    let data = data.canonicalize().unwrap_or(data);
     data.join("demos").join(format!("{env_id}.npz"))
 }
 
