@@ -8,20 +8,9 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use defender_dtw::{Dtw, QueryWindow, RefWindow, References, View, dtw};
 
-/// A random walk, like a trajectory (fixed LCG, no dependency).
-fn walk(len: usize, dim: usize, seed: u64) -> Vec<f32> {
-    let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-    let mut pos = vec![0.0f32; dim];
-    let mut out = Vec::with_capacity(len * dim);
-    for _ in 0..len {
-        for p in &mut pos {
-            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            *p += ((state >> 40) as f32 / (1u64 << 24) as f32) - 0.5;
-            out.push(*p);
-        }
-    }
-    out
-}
+#[path = "support/walk.rs"]
+mod walk;
+use walk::walk;
 
 fn batch(c: &mut Criterion) {
     let (n, m, dim) = (1000, 1000, 11);

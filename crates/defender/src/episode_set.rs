@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_atomic;
 use crate::error::{DefenderError, Result};
-use crate::npz::{Array, NpzReader, NpzWriter, Values};
+use crate::npz::{Array, NpzReader, NpzWriter, Values, bad};
 use crate::strategy::Mode;
 
 /// The `meta` array of an episode-set file: UTF-8 JSON describing the set. Every field is
@@ -517,15 +517,6 @@ impl EpisodeSet {
             npz.finish()?;
             Ok(())
         })
-    }
-}
-
-fn bad(path: &Path, array: &'static str, expected: &str, got: impl Into<String>) -> DefenderError {
-    DefenderError::InvalidArray {
-        path: path.to_owned(),
-        array,
-        expected: expected.to_owned(),
-        got: got.into(),
     }
 }
 

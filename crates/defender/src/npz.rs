@@ -65,7 +65,8 @@ impl NpzReader {
     }
 }
 
-fn bad(path: &Path, array: &'static str, expected: &str, got: impl Into<String>) -> DefenderError {
+/// An array of an `.npz` file that is not what SPEC section 8 says.
+pub(crate) fn bad(path: &Path, array: &'static str, expected: &str, got: impl Into<String>) -> DefenderError {
     DefenderError::InvalidArray {
         path: path.to_owned(),
         array,
