@@ -79,6 +79,9 @@ impl DefenderSection {
         if args.demos.is_some() {
             self.demos.clone_from(&args.demos);
         }
+        if args.dynamics_thread {
+            self.dynamics.background = true;
+        }
         Ok(())
     }
 }

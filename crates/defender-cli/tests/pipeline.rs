@@ -134,6 +134,28 @@ fn train_ablate_report() {
     // A filtered episode ends with R_task as its last reward; its return includes it.
     assert!(r_task.is_finite());
 
+    // The dynamics model on its own thread: the same run, episode for episode.
+    let threaded = root.join("threaded");
+    ok(&[
+        &common[..],
+        &[
+            "--strategy",
+            "MeanDemoW5/MeanDemoW10",
+            "--demos",
+            demos,
+            "--num-demos",
+            "5",
+            "--dynamics-thread",
+            "--out",
+            threaded.to_str().unwrap(),
+        ],
+    ]
+    .concat());
+    assert_eq!(check_consistent(&threaded, steps).rows, def_m.rows, "--dynamics-thread changed the run");
+    let config: toml::Value =
+        toml::from_str(&std::fs::read_to_string(threaded.join("config.toml")).unwrap()).unwrap();
+    assert_eq!(config["defender"]["dynamics"]["background"].as_bool(), Some(true));
+
     // The recorded episodes of the bare run are an episode set numpy-compatible tools read.
     let scores = root.join("scores.csv");
     let out = ok(&[

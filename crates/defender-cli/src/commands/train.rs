@@ -50,6 +50,11 @@ pub struct TrainArgs {
     /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
     #[arg(long, allow_negative_numbers = true)]
     pub r_task: Option<f64>,
+    /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
+    /// updates: same results bit for bit, less wall time when a core is free
+    /// ([defender.dynamics] background = true).
+    #[arg(long)]
+    pub dynamics_thread: bool,
     /// Budget in training episodes.
     #[arg(long, conflicts_with = "steps")]
     pub episodes: Option<u64>,
@@ -194,10 +199,12 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
         || args.demos.is_some()
         || args.num_demos.is_some()
         || args.mode.is_some()
-        || args.r_task.is_some();
+        || args.r_task.is_some()
+        || args.dynamics_thread;
     if wants_defender && config.defender.is_none() {
         let strategy = args.strategy.as_deref().context(
-            "--demos, --num-demos, --mode and --r-task configure DEFENDER: give --strategy SAFE/UNSAFE too",
+            "--demos, --num-demos, --mode, --r-task and --dynamics-thread configure DEFENDER: give \
+             --strategy SAFE/UNSAFE too",
         )?;
         config.defender = Some(DefenderSection::new(strategy.parse().context("--strategy")?));
     }
