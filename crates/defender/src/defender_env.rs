@@ -216,8 +216,7 @@ impl<E: Env> DefenderEnv<E> {
                 got: format!("({}, {})", model.obs_dim(), model.act_dim()),
             });
         }
-        *self.dynamics.model()? = model;
-        Ok(())
+        self.dynamics.replace(model)
     }
 
     /// Restores the counters (checkpoint resume).

@@ -17,6 +17,8 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use defender_nn::Parallelism;
+
 use crate::dynamics::DynamicsModel;
 use crate::error::{DefenderError, Result};
 
@@ -45,8 +47,12 @@ struct Progress {
 }
 
 impl TrainedDynamics {
-    /// Wraps `model`; with `background`, starts its worker thread.
-    pub(crate) fn new(model: DynamicsModel, background: bool) -> Result<Self> {
+    /// Wraps `model`; with `background`, starts its worker thread and makes the model's GEMMs
+    /// sequential (the thread is the model's one core; results do not depend on it).
+    pub(crate) fn new(mut model: DynamicsModel, background: bool) -> Result<Self> {
+        if background {
+            model.set_parallelism(Parallelism::Sequential);
+        }
         let (obs_dim, act_dim) = (model.obs_dim(), model.act_dim());
         let model = Arc::new(Mutex::new(model));
         let worker = if background { Some(Worker::start(Arc::clone(&model))?) } else { None };
@@ -66,6 +72,15 @@ impl TrainedDynamics {
         };
         DynamicsModel::check_transition(self.obs_dim, self.act_dim, obs, action, next_obs)?;
         worker.send(obs, action, next_obs)
+    }
+
+    /// Replaces the model (a checkpoint's), sequential in the background as in [`Self::new`].
+    pub(crate) fn replace(&mut self, mut model: DynamicsModel) -> Result<()> {
+        if self.is_background() {
+            model.set_parallelism(Parallelism::Sequential);
+        }
+        *self.model()? = model;
+        Ok(())
     }
 
     /// The model, once every transition handed over so far has been learnt from.

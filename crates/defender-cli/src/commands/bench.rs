@@ -812,8 +812,12 @@ impl Bench {
                     ..DefenderConfig::default()
                 };
                 let mut rng = ChaCha8Rng::seed_from_u64(SEED);
+                let background = config.dynamics.background;
                 let env = DefenderEnv::new(env, &self.demos()?.set, config, &mut rng)?;
-                env.dynamics()?.set_parallelism(self.par);
+                if !background {
+                    // In the background the model has its own thread and stays sequential.
+                    env.dynamics()?.set_parallelism(self.par);
+                }
                 (self.agent(Algo::Sac, obs_dim, act_dim)?, Box::new(env))
             }
         };
