@@ -239,3 +239,91 @@ fn errors_name_what_to_fix() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("lerning_rate"), "{err}");
 }
+
+/// The paper's whole chain on a tiny budget: collect demonstrations by training SAC (horizon 20,
+/// 200 random steps), train with DEFENDER on them while recording, ablate with them, report.
+#[test]
+fn collect_train_ablate_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let demos = root.join("demos.npz");
+    let demos_s = demos.to_str().unwrap();
+    let out = ok(&[
+        "demos",
+        "collect",
+        "--env",
+        ENV_ID,
+        "--safe",
+        "3",
+        "--unsafe",
+        "3",
+        "--learning-starts",
+        "200",
+        "--max-episode-steps",
+        "20",
+        "--max-steps",
+        "5000",
+        "--seed",
+        "1",
+        "--out",
+        demos_s,
+    ]);
+    assert!(out.contains("3 safe and 3 unsafe demonstrations"), "{out}");
+    let set = defender::EpisodeSet::load(&demos).unwrap();
+    assert_eq!(set.group_sizes(), (3, 3));
+    for e in set.episodes() {
+        let n = e.rew.len();
+        assert!(
+            if e.crashed { n < 20 } else { n == 20 },
+            "crashed {} with {n} steps (horizon 20)",
+            e.crashed
+        );
+    }
+    let meta = &set.meta().extra;
+    assert_eq!(meta["learning_starts"], 200);
+    let sources: Vec<u64> =
+        meta["source_training_episodes"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+    assert_eq!(sources.len(), 6);
+    assert!(sources.windows(2).all(|w| w[0] < w[1]), "in training order: {sources:?}");
+    // Nothing was recorded before SAC's first update: the first candidate comes after an episode
+    // that ended past step 200, i.e. at least 10 episodes of at most 20 steps.
+    assert!(sources[0] >= 10, "{sources:?}");
+
+    let run = root.join("runs/defender");
+    let recorded = root.join("episodes.npz");
+    let steps = 600u64;
+    ok(&[
+        "train",
+        "--env",
+        ENV_ID,
+        "--steps",
+        &steps.to_string(),
+        "--strategy",
+        "MeanBothW5/MeanBothW5",
+        "--demos",
+        demos_s,
+        "--record-episodes",
+        recorded.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+    ]);
+    let m = check_consistent(&run, steps);
+    let episodes = defender::EpisodeSet::load(&recorded).unwrap();
+    assert_eq!(episodes.len(), m.rows.len(), "one recorded episode per metrics.csv row");
+
+    let scores = root.join("scores.csv");
+    let out = ok(&[
+        "ablate",
+        "--demos",
+        demos_s,
+        "--episodes",
+        recorded.to_str().unwrap(),
+        "--strategies",
+        "MeanBothW5/MeanBothW5,MinBoth/MinBoth",
+        "--out",
+        scores.to_str().unwrap(),
+    ]);
+    assert!(out.contains("2 strategies ranked"), "{out}");
+    let table = ok(&["report", root.join("runs").to_str().unwrap()]);
+    assert!(table.contains("MeanBothW5"), "{table}");
+}

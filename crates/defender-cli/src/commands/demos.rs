@@ -1,23 +1,30 @@
 //! `defender demos collect`: demonstrations as in the paper: train a SAC agent and, after every
 //! training episode, record one episode of the current policy.
 //!
-//! How the N of each kind are picked: every recorded episode is a candidate, safe if the
-//! environment did not terminate it before the horizon, unsafe if it did. Training stops once
-//! both groups have enough candidates (or at `--max-steps`), and then N are taken from each group
-//! at evenly spaced positions of its candidate list (first and last included). So the unsafe
-//! group spans the whole run, from the falls of an untrained policy to the rarer falls of a good
-//! one, instead of being the first N crashes of a near-random policy, and the safe group spans
-//! every policy that survived the horizon. The rule and the source episode of each demonstration
-//! are written into the file's `meta`.
+//! How the N of each kind are picked: every episode recorded once SAC has started learning is a
+//! candidate, safe if the environment did not terminate it before the horizon, unsafe if it did.
+//! Training stops once both groups have enough candidates (or at `--max-steps`), and then N are
+//! taken from each group at evenly spaced positions of its candidate list (first and last
+//! included). So the unsafe group spans the whole run, from the falls of a barely trained policy
+//! to the rarer falls of a good one, instead of being the first N crashes of a near-random policy,
+//! and the safe group spans every policy that survived the horizon. The rule and the source
+//! episode of each demonstration are written into the file's `meta`.
+//!
+//! Nothing is recorded during SAC's `learning_starts` random steps: the policy is then the same
+//! untrained network after every episode, so its episodes are copies of one demonstration (on
+//! Hopper-v5 a fall while standing, 200 of 889 candidates). Counted as many, they made the unsafe
+//! group look like the first steps of every episode, and `MeanDemoW5/MeanDemoW10` then filtered
+//! every episode of a new agent at about 20 steps, so that it never learnt (docs/decisions.md).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use defender::{EpisodeRecorder, EpisodeSet, Meta};
+use defender_mujoco::MujocoEnv;
 use defender_rl::{
-    Agent, AlgoConfig, Budget, Env, EpisodeRecord, HookError, Hooks, SacConfig, SeedPurpose, Trainer,
-    TrainerConfig, derive_seed,
+    Agent, AlgoConfig, Budget, Env, EpisodeRecord, HookError, Hooks, SacConfig, SeedPurpose, TimeLimit,
+    Trainer, TrainerConfig, derive_seed,
 };
 
 use crate::progress;
@@ -31,8 +38,9 @@ pub enum DemosCommand {
   defender demos collect --env Hopper-v5 --safe 50 --unsafe 50 --max-steps 400000 --out hopper.npz
 
 A demonstration is unsafe when the environment terminated it before the horizon (it crashed),
-safe otherwise. N of each are picked at evenly spaced positions among all candidates, so that both
-groups span the training run; see the file's meta for the rule and the source episodes.")]
+safe otherwise. Episodes are recorded once SAC has started learning (after --learning-starts
+random steps); N of each group are picked at evenly spaced positions among the candidates, so
+that both groups span the training run; see the file's meta for the rule and the source episodes.")]
     Collect(CollectArgs),
 }
 
@@ -54,6 +62,13 @@ pub struct CollectArgs {
     /// Train at least this many steps before stopping (more candidates to spread over).
     #[arg(long, default_value_t = 0)]
     pub min_steps: u64,
+    /// SAC's random-action steps before its first update; recording starts after them
+    /// [default: SAC's learning_starts, 5000].
+    #[arg(long)]
+    pub learning_starts: Option<u64>,
+    /// Horizon of the training and demonstration episodes [default: the task's, 1000].
+    #[arg(long)]
+    pub max_episode_steps: Option<usize>,
     /// Seed of the SAC agent and of every reset.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -73,10 +88,23 @@ fn collect(args: &CollectArgs) -> Result<()> {
     if args.safe == 0 || args.unsafe_ == 0 {
         bail!("--safe and --unsafe must be >= 1 (DEFENDER needs both groups)");
     }
-    let env = defender_mujoco::make(&args.env)?;
+    let make = || -> Result<TimeLimit<MujocoEnv>> {
+        let env = defender_mujoco::make(&args.env)?;
+        Ok(match args.max_episode_steps {
+            Some(0) => bail!("--max-episode-steps must be >= 1"),
+            Some(n) => TimeLimit::new(env.into_inner(), n),
+            None => env,
+        })
+    };
+    let env = make()?;
     let (obs_dim, act_dim) = (env.observation_space().dim(), env.action_space().dim());
-    let agent = AlgoConfig::Sac(SacConfig::default()).build(obs_dim, act_dim, args.seed)?;
-    let eval_env = defender_mujoco::make(&args.env)?;
+    let mut sac = SacConfig::default();
+    if let Some(n) = args.learning_starts {
+        sac.learning_starts = n;
+    }
+    let learning_starts = sac.learning_starts;
+    let agent = AlgoConfig::Sac(sac).build(obs_dim, act_dim, args.seed)?;
+    let eval_env = make()?;
     let mut config = TrainerConfig::new(args.seed, Budget::Steps(args.max_steps));
     config.final_eval_episodes = 1;
     let mut trainer = Trainer::new(agent, env, eval_env, config)?;
@@ -88,7 +116,8 @@ fn collect(args: &CollectArgs) -> Result<()> {
     };
     let mut hooks = Collector {
         args,
-        demo_env: defender_mujoco::make(&args.env)?,
+        learning_starts,
+        demo_env: make()?,
         pool: EpisodeSet::new(obs_dim, act_dim, pool_meta)?,
         sources: Vec::new(),
         recorder: EpisodeRecorder::new(),
@@ -117,7 +146,9 @@ fn collect(args: &CollectArgs) -> Result<()> {
 /// Records a demonstration after every training episode and decides when there are enough.
 struct Collector<'a> {
     args: &'a CollectArgs,
-    demo_env: defender_rl::TimeLimit<defender_mujoco::MujocoEnv>,
+    /// SAC's first update comes after this many steps; no candidate before it.
+    learning_starts: u64,
+    demo_env: TimeLimit<MujocoEnv>,
     pool: EpisodeSet,
     /// The training episode after which each pool entry was recorded.
     sources: Vec<u64>,
@@ -179,8 +210,10 @@ impl Collector<'_> {
         let mut meta = self.pool.meta().clone();
         meta.provenance = Some(format!(
             "defender demos collect: SAC (seed {}) trained {training_steps} steps; after every training \
-             episode one episode of the deterministic policy was recorded ({} candidates)",
+             episode that ended past its {} random steps, one episode of the deterministic policy was \
+             recorded ({} candidates)",
             self.args.seed,
+            self.learning_starts,
             self.pool.len()
         ));
         meta.extra.insert(
@@ -193,6 +226,7 @@ impl Collector<'_> {
             chosen.iter().map(|&i| self.sources[i]).collect::<Vec<u64>>().into(),
         );
         meta.extra.insert("training_steps".into(), training_steps.into());
+        meta.extra.insert("learning_starts".into(), self.learning_starts.into());
         let mut set = EpisodeSet::new(self.pool.obs_dim(), self.pool.act_dim(), meta)?;
         for i in chosen {
             let e = self.pool.episode(i);
@@ -217,6 +251,12 @@ impl Hooks for Collector<'_> {
     }
 
     fn after_episode(&mut self, record: &EpisodeRecord, agent: &mut dyn Agent) -> Result<(), HookError> {
+        if record.total_steps <= self.learning_starts {
+            // The untrained policy: the same demonstration every time (module docs).
+            self.bar
+                .set_message(format!("random steps until {} (SAC's learning_starts)", self.learning_starts));
+            return Ok(());
+        }
         self.demonstrate(record.episode, agent)?;
         let (safe, unsafe_) = self.pool.group_sizes();
         self.bar.set_message(format!(
