@@ -46,8 +46,7 @@ fn latex_and_csv_to_files_and_plots() {
     let root = scratch("files");
     let runs = root.join("runs");
     paper_fixture(&runs);
-    let tex = root.join("out/tables.tex");
-    std::fs::create_dir_all(tex.parent().unwrap()).unwrap();
+    let tex = root.join("out/tables.tex"); // out/ does not exist yet: it is made
     let out = defender(&[
         "report",
         runs.to_str().unwrap(),
@@ -111,6 +110,18 @@ fn broken_run_directories_fail_with_the_file_named() {
     let out = defender(&["report", root.join("nowhere").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("nowhere: no such file or directory"));
+
+    // An --out that cannot be written names the path, and says why once.
+    let blocker = root.join("a-file");
+    std::fs::write(&blocker, "").unwrap();
+    let healthy = scratch("broken_out");
+    RunSpec::new("sac", 0, None).write(&healthy);
+    let target = blocker.join("report.md");
+    let out = defender(&["report", healthy.to_str().unwrap(), "--out", target.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    assert!(stderr.starts_with(&format!("error: {}: ", blocker.display())), "{stderr}");
+    assert_eq!(stderr.matches("os error").count(), 1, "the cause is said once: {stderr}");
 
     // Everything skipped: nothing to report is an error, not an empty table.
     std::fs::write(dir.join("summary.json"), "{\"complete\": false}").unwrap();

@@ -79,6 +79,10 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
     }
     match &args.out {
         Some(path) => {
+            if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+                std::fs::create_dir_all(parent)
+                    .map_err(|source| ReportError::Io { path: parent.to_path_buf(), source })?;
+            }
             write_atomic(path, text.as_bytes())?;
             eprintln!("wrote {} ({} rows from {} runs)", path.display(), table.rows.len(), set.runs.len());
         }
