@@ -108,20 +108,10 @@ fn train_ablate_report() {
     let bare_m = check_consistent(&bare, steps);
     assert!(bare_m.rows.iter().all(|r| r.4 != "filtered"), "a bare run filters nothing");
 
-    let out = ok(&[
-        &common[..],
-        &[
-            "--strategy",
-            "MeanDemoW5/MeanDemoW10",
-            "--demos",
-            demos,
-            "--num-demos",
-            "5",
-            "--out",
-            def.to_str().unwrap(),
-        ],
-    ]
-    .concat());
+    let defended =
+        [&common[..], &["--strategy", "MeanDemoW5/MeanDemoW10", "--demos", demos, "--num-demos", "5"]]
+            .concat();
+    let out = ok(&[&defended[..], &["--out", def.to_str().unwrap()]].concat());
     assert!(out.contains("DEFENDER MeanDemoW5/MeanDemoW10"), "{out}");
     let def_m = check_consistent(&def, steps);
     assert!(def_m.rows.iter().any(|r| r.4 == "filtered"), "an untrained agent gets filtered");
@@ -136,21 +126,7 @@ fn train_ablate_report() {
 
     // The dynamics model on its own thread: the same run, episode for episode.
     let threaded = root.join("threaded");
-    ok(&[
-        &common[..],
-        &[
-            "--strategy",
-            "MeanDemoW5/MeanDemoW10",
-            "--demos",
-            demos,
-            "--num-demos",
-            "5",
-            "--dynamics-thread",
-            "--out",
-            threaded.to_str().unwrap(),
-        ],
-    ]
-    .concat());
+    ok(&[&defended[..], &["--dynamics-thread", "--out", threaded.to_str().unwrap()]].concat());
     assert_eq!(check_consistent(&threaded, steps).rows, def_m.rows, "--dynamics-thread changed the run");
     let config: toml::Value =
         toml::from_str(&std::fs::read_to_string(threaded.join("config.toml")).unwrap()).unwrap();

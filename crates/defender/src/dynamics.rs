@@ -354,13 +354,9 @@ impl DynamicsModel {
         action: &[f64],
         next_obs: &[f64],
     ) -> Result<()> {
-        let lengths = [
-            ("observation length (dynamics model)", obs_dim, obs.len()),
-            ("action length (dynamics model)", act_dim, action.len()),
-            ("next observation length (dynamics model)", obs_dim, next_obs.len()),
-        ];
-        if let Some(&(what, expected, got)) = lengths.iter().find(|(_, e, g)| e != g) {
-            return Err(mismatch(what, expected, got));
+        Self::check_input(obs_dim, act_dim, obs.len(), action.len())?;
+        if next_obs.len() != obs_dim {
+            return Err(mismatch("next observation length (dynamics model)", obs_dim, next_obs.len()));
         }
         if obs.iter().chain(action).chain(next_obs).any(|v| !v.is_finite()) {
             return Err(DefenderError::Config("dynamics: a transition with NaN or infinite values".into()));
@@ -369,11 +365,16 @@ impl DynamicsModel {
     }
 
     fn check(&self, obs: usize, act: usize) -> Result<()> {
-        if obs != self.obs_dim {
-            return Err(mismatch("observation length (dynamics model)", self.obs_dim, obs));
+        Self::check_input(self.obs_dim, self.act_dim, obs, act)
+    }
+
+    /// The lengths of an input (observation, action) against a model's dimensions.
+    fn check_input(obs_dim: usize, act_dim: usize, obs: usize, act: usize) -> Result<()> {
+        if obs != obs_dim {
+            return Err(mismatch("observation length (dynamics model)", obs_dim, obs));
         }
-        if act != self.act_dim {
-            return Err(mismatch("action length (dynamics model)", self.act_dim, act));
+        if act != act_dim {
+            return Err(mismatch("action length (dynamics model)", act_dim, act));
         }
         Ok(())
     }
