@@ -16,6 +16,8 @@ run: setup
 
 test: setup
 	$(CARGO) test --release --workspace --all-targets
+	# --all-targets leaves out doc tests: the crates' README examples are compiled and run here.
+	$(CARGO) test --release --workspace --doc
 
 bench: setup
 	$(CARGO) bench --workspace
