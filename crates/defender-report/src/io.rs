@@ -1,9 +1,7 @@
 //! Atomic output: write `NAME.tmp`, sync it, then rename it to `NAME`, so that a reader (or an
 //! interrupted run or report) never sees a half-written file.
 
-use std::fs::File;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::error::{Result, io_err};
 
@@ -14,14 +12,7 @@ use crate::error::{Result, io_err};
 ///
 /// [`crate::ReportError::Io`] naming the file when writing or renaming fails.
 pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
-    let path = path.as_ref();
-    let mut tmp: PathBuf = path.to_path_buf();
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
-    name.push(".tmp");
-    tmp.set_file_name(name);
-    let mut file = File::create(&tmp).map_err(io_err(&tmp))?;
-    file.write_all(bytes).and_then(|()| file.sync_all()).map_err(io_err(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(io_err(path))
+    defender_io::write_bytes(path.as_ref(), bytes).map_err(|(at, e)| io_err(at)(e))
 }
 
 #[cfg(test)]

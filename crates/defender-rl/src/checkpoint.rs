@@ -9,36 +9,13 @@ use std::path::{Path, PathBuf};
 
 use crate::error::RlError;
 
-fn sibling(dir: &Path, suffix: &str) -> PathBuf {
-    let mut name = dir.file_name().map(|n| n.to_os_string()).unwrap_or_else(|| "checkpoint".into());
-    name.push(suffix);
-    dir.with_file_name(name)
-}
-
-fn remove_dir_if_exists(path: &Path) -> Result<(), RlError> {
-    match std::fs::remove_dir_all(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(RlError::io(path, e)),
-        _ => Ok(()),
-    }
-}
-
-/// Writes a checkpoint at `dir` with `fill`, which receives the (empty) temporary directory.
+/// Writes a checkpoint at `dir` with `fill`, which receives the (empty) temporary directory;
+/// the directory replaces the previous checkpoint atomically ([`defender_io::replace_dir`]).
 ///
 /// # Errors
 /// Whatever `fill` returns, or [`RlError::Io`] from the directory operations.
 pub fn write_atomic(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), RlError>) -> Result<(), RlError> {
-    let tmp = sibling(dir, ".tmp");
-    let old = sibling(dir, ".old");
-    remove_dir_if_exists(&tmp)?;
-    std::fs::create_dir_all(&tmp).map_err(|e| RlError::io(&tmp, e))?;
-    fill(&tmp)?;
-    if dir.exists() {
-        // Only now is the previous `NAME.old` (if any) superseded by a complete `NAME`.
-        remove_dir_if_exists(&old)?;
-        std::fs::rename(dir, &old).map_err(|e| RlError::io(dir, e))?;
-    }
-    std::fs::rename(&tmp, dir).map_err(|e| RlError::io(&tmp, e))?;
-    remove_dir_if_exists(&old)
+    defender_io::replace_dir(dir, fill)
 }
 
 /// The complete checkpoint to read for `dir`: `dir` itself, or `dir.old` if a replacement was
@@ -47,14 +24,8 @@ pub fn write_atomic(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), RlError>)
 /// # Errors
 /// [`RlError::Checkpoint`] if neither exists.
 pub fn resolve(dir: &Path) -> Result<PathBuf, RlError> {
-    if dir.is_dir() {
-        return Ok(dir.to_path_buf());
-    }
-    let old = sibling(dir, ".old");
-    if old.is_dir() {
-        return Ok(old);
-    }
-    Err(RlError::checkpoint(dir, "no checkpoint here (nor an interrupted one beside it)"))
+    defender_io::resolve_dir(dir)
+        .ok_or_else(|| RlError::checkpoint(dir, "no checkpoint here (nor an interrupted one beside it)"))
 }
 
 /// Writes `value` as pretty JSON to `path`.
@@ -64,7 +35,7 @@ pub fn resolve(dir: &Path) -> Result<PathBuf, RlError> {
 pub(crate) fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), RlError> {
     let text = serde_json::to_vec_pretty(value)
         .map_err(|e| RlError::io(path, std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
-    std::fs::write(path, text).map_err(|e| RlError::io(path, e))
+    Ok(defender_io::write_bytes(path, &text)?)
 }
 
 /// Reads JSON from `path`.
@@ -88,14 +59,14 @@ mod tests {
         write_atomic(&dir, |d| std::fs::write(d.join("b"), "2").map_err(|e| RlError::io(d, e))).unwrap();
         assert!(!dir.join("a").exists(), "a file of the previous checkpoint survived");
         assert_eq!(std::fs::read_to_string(dir.join("b")).unwrap(), "2");
-        assert!(!sibling(&dir, ".tmp").exists() && !sibling(&dir, ".old").exists());
+        assert!(!defender_io::tmp_sibling(&dir, ".tmp").exists() && !defender_io::tmp_sibling(&dir, ".old").exists());
         // A failing fill leaves the previous checkpoint in place.
         let err = write_atomic(&dir, |d| Err(RlError::checkpoint(d, "boom")));
         assert!(err.is_err());
         assert_eq!(std::fs::read_to_string(resolve(&dir).unwrap().join("b")).unwrap(), "2");
         // Interrupted between the two renames: only NAME.old exists.
-        std::fs::rename(&dir, sibling(&dir, ".old")).unwrap();
-        assert_eq!(resolve(&dir).unwrap(), sibling(&dir, ".old"));
+        std::fs::rename(&dir, defender_io::tmp_sibling(&dir, ".old")).unwrap();
+        assert_eq!(resolve(&dir).unwrap(), defender_io::tmp_sibling(&dir, ".old"));
         assert!(resolve(&root.path().join("nothing")).is_err());
     }
 }

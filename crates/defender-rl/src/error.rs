@@ -132,7 +132,15 @@ impl RlError {
     pub(crate) fn io(path: impl Into<std::path::PathBuf>, source: std::io::Error) -> Self {
         Self::Io { path: path.into(), source }
     }
+}
 
+impl From<(std::path::PathBuf, std::io::Error)> for RlError {
+    fn from((path, source): (std::path::PathBuf, std::io::Error)) -> Self {
+        Self::Io { path, source }
+    }
+}
+
+impl RlError {
     /// A checkpoint error on `path`.
     pub(crate) fn checkpoint(path: impl Into<std::path::PathBuf>, reason: impl Into<String>) -> Self {
         Self::Checkpoint { path: path.into(), reason: reason.into() }

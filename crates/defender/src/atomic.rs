@@ -9,13 +9,12 @@ use crate::error::{DefenderError, Result};
 
 /// The temporary path used while writing `path`: `NAME.tmp` in the same directory.
 pub(crate) fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
-    name.push(".tmp");
-    path.with_file_name(name)
+    defender_io::tmp_sibling(path, ".tmp")
 }
 
-/// Writes `path` atomically: `write` fills a buffered writer on `NAME.tmp`, which is then synced
-/// and renamed over `path`. On error the temporary file is removed and `path` is untouched.
+/// Writes `path` atomically ([`defender_io::write_file`]: `NAME.tmp`, fsync, rename, fsync of
+/// the directory): `write` fills a buffered writer on the temporary file. On error the temporary
+/// file is removed and `path` is untouched.
 ///
 /// # Errors
 /// Whatever `write` returns, or an I/O error creating, syncing or renaming the file.
@@ -23,19 +22,18 @@ pub fn write_atomic<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<()>,
 {
-    let tmp = tmp_path(path);
-    let result = (|| {
-        let file = File::create(&tmp).map_err(|e| DefenderError::io(&tmp, e))?;
-        let mut w = BufWriter::new(file);
-        write(&mut w)?;
-        let file = w.into_inner().map_err(|e| DefenderError::io(&tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| DefenderError::io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| DefenderError::io(path, e))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    let mut inner: Option<DefenderError> = None;
+    let written = defender_io::write_file(path, |w| {
+        write(w).map_err(|e| {
+            inner = Some(e);
+            std::io::Error::other("write failed")
+        })
+    });
+    match (written, inner) {
+        (Err(_), Some(e)) => Err(e),
+        (Err((at, e)), None) => Err(DefenderError::io(at, e)),
+        (Ok(()), _) => Ok(()),
     }
-    result
 }
 
 /// Writes a `Write` error as a [`DefenderError::Io`] on `path`.
