@@ -45,6 +45,16 @@ pub struct EpisodeReplay {
     pub first_filtered: Vec<Option<usize>>,
 }
 
+/// A demonstration of the ablation's own set left out of its group (leave-one-out,
+/// [`crate::selection`]): its group's costs are aggregated without it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct HeldOut {
+    /// The group: `true` for the unsafe one.
+    pub crashed: bool,
+    /// The demonstration's position in its group (file order).
+    pub index: usize,
+}
+
 /// Progress of a running ablation, reported after each finished episode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Progress {
@@ -110,12 +120,13 @@ impl Ablation {
     /// The episode's dimensions differ from the demonstrations'.
     pub fn replay(&self, episode: Episode<'_>) -> Result<EpisodeReplay> {
         let (mut safe, mut unsafe_) = self.streams()?;
-        self.replay_with(episode, &mut safe, &mut unsafe_, &mut Vec::new())
+        self.replay_with(episode, None, &mut safe, &mut unsafe_, &mut Vec::new())
     }
 
     fn replay_with(
         &self,
         episode: Episode<'_>,
+        held_out: Option<HeldOut>,
         safe: &mut Stream,
         unsafe_: &mut Stream,
         element: &mut Vec<f32>,
@@ -141,9 +152,12 @@ impl Ablation {
             self.demos.element_into(episode.observation(t).iter().copied(), episode.action(t), element);
             safe.push(element)?;
             unsafe_.push(element)?;
-            for (stream, values) in [(&*safe, &mut safe_values), (&*unsafe_, &mut unsafe_values)] {
+            for (crashed, stream, values) in
+                [(false, &*safe, &mut safe_values), (true, &*unsafe_, &mut unsafe_values)]
+            {
+                let skip = held_out.filter(|h| h.crashed == crashed).map(|h| h.index);
                 for (v, chunk) in values.chunks_exact_mut(3).enumerate() {
-                    chunk.copy_from_slice(&Aggregation::apply_all(stream.costs(v)));
+                    chunk.copy_from_slice(&Aggregation::apply_all_except(stream.costs(v), skip));
                 }
             }
             for (k, &(s, u)) in first.iter_mut().zip(&self.pairs) {
@@ -207,10 +221,71 @@ impl Ablation {
                 |(streams, element), i| {
                     let (safe, unsafe_) =
                         streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
-                    let replay = self.replay_with(episodes.episode(i), safe, unsafe_, element)?;
+                    let replay = self.replay_with(episodes.episode(i), None, safe, unsafe_, element)?;
                     let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(Progress { done: d, total, episode_len: replay.len });
                     Ok(replay)
+                },
+            )
+            .collect()
+    }
+}
+
+impl Ablation {
+    /// Leave-one-out over the ablation's own demonstrations: every episode of `set` (the set the
+    /// demonstrations were prepared from) is replayed against the others of its group and all of
+    /// the other group, in parallel, and comes back in file order with its [`HeldOut`] position.
+    /// Equal bit for bit to a replay against demonstrations prepared without it (with
+    /// [`crate::Scaling::None`]; z-score scaling stays fitted on the whole set).
+    ///
+    /// # Errors
+    /// A set whose groups do not match the demonstrations' (sizes or lengths).
+    pub(crate) fn replay_held_out(
+        &self,
+        set: &EpisodeSet,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Vec<(HeldOut, EpisodeReplay)>> {
+        let mode = self.mode();
+        let mut positions = Vec::with_capacity(set.len());
+        let (mut safe, mut unsafe_) = (0, 0);
+        for e in set.episodes() {
+            let (count, refs) =
+                if e.crashed { (&mut unsafe_, self.demos.unsafe_()) } else { (&mut safe, self.demos.safe()) };
+            if refs.lengths().get(*count) != Some(&e.sequence_len(mode)) {
+                return Err(DefenderError::Mismatch {
+                    what: format!(
+                        "episode {} of {} vs the prepared demonstrations",
+                        e.index,
+                        set.source().display()
+                    ),
+                    expected: "the set the demonstrations were prepared from".into(),
+                    got: "another set".into(),
+                });
+            }
+            positions.push(HeldOut { crashed: e.crashed, index: *count });
+            *count += 1;
+        }
+        if (safe, unsafe_) != (self.demos.safe().len(), self.demos.unsafe_().len()) {
+            return Err(DefenderError::Mismatch {
+                what: format!("group sizes of {} vs the prepared demonstrations", set.source().display()),
+                expected: format!("({}, {})", self.demos.safe().len(), self.demos.unsafe_().len()),
+                got: format!("({safe}, {unsafe_})"),
+            });
+        }
+        let total = set.len();
+        let done = AtomicUsize::new(0);
+        (0..total)
+            .into_par_iter()
+            .map_init(
+                || (self.streams(), Vec::new()),
+                |(streams, element), i| {
+                    let (safe, unsafe_) =
+                        streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
+                    let replay =
+                        self.replay_with(set.episode(i), Some(positions[i]), safe, unsafe_, element)?;
+                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(Progress { done: d, total, episode_len: replay.len });
+                    Ok((positions[i], replay))
                 },
             )
             .collect()

@@ -14,6 +14,7 @@ mod method;
 mod npz;
 mod recorder;
 mod score;
+pub mod selection;
 mod strategy;
 pub mod synthetic;
 mod window;

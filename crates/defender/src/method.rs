@@ -65,6 +65,28 @@ impl Aggregation {
         }
         [lo, hi, sum / costs.len() as f64]
     }
+
+    /// [`Aggregation::apply_all`] of `costs` without the element at `skip` (when given): equal
+    /// bit for bit to `apply_all` of the slice with that element removed, since the remaining
+    /// costs are visited in the same order. Leave-one-out uses it (crate::selection).
+    pub(crate) fn apply_all_except(costs: &[f32], skip: Option<usize>) -> [f64; 3] {
+        let Some(skip) = skip.filter(|&i| i < costs.len()) else {
+            return Self::apply_all(costs);
+        };
+        if costs.len() == 1 {
+            return [f64::NAN; 3];
+        }
+        let (mut lo, mut hi, mut sum) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for (i, &c) in costs.iter().enumerate() {
+            if i != skip {
+                let c = f64::from(c);
+                lo = lo.min(c);
+                hi = hi.max(c);
+                sum += c;
+            }
+        }
+        [lo, hi, sum / (costs.len() - 1) as f64]
+    }
 }
 
 impl fmt::Display for Aggregation {
@@ -195,6 +217,9 @@ mod tests {
         assert_eq!(Aggregation::Max.apply(&c), 6.0);
         assert_eq!(Aggregation::Mean.apply(&c), 3.0);
         assert_eq!(Aggregation::apply_all(&c), [1.0, 6.0, 3.0]);
+        assert_eq!(Aggregation::apply_all_except(&c, None), [1.0, 6.0, 3.0]);
+        assert_eq!(Aggregation::apply_all_except(&c, Some(1)), Aggregation::apply_all(&[3.0, 2.0, 6.0]));
+        assert!(Aggregation::apply_all_except(&[1.0], Some(0))[2].is_nan());
         assert!(Aggregation::Mean.apply(&[]).is_nan());
         assert_eq!("Max".parse::<Aggregation>().unwrap(), Aggregation::Max);
         assert!("max".parse::<Aggregation>().is_err());

@@ -73,6 +73,53 @@ impl WalkSet {
     }
 }
 
+/// A demonstration set whose unsafe demonstrations follow the safe ones' distribution until late
+/// in the episode and then drift away (a task whose crashes show only near their end): the test
+/// case of choosing a strategy (crate::selection).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LateDivergence {
+    /// Observation dimension.
+    pub obs_dim: usize,
+    /// Action dimension.
+    pub act_dim: usize,
+    /// Demonstrations per group.
+    pub per_group: usize,
+    /// Transitions per demonstration.
+    pub len: usize,
+    /// The transition after which the unsafe demonstrations drift.
+    pub diverge_at: usize,
+    /// Added to the first observation coordinate per step after `diverge_at` (unsafe only).
+    pub drift: f32,
+}
+
+impl LateDivergence {
+    /// 3-D observations, 1-D actions, 8 + 8 demonstrations of 60 transitions that drift by 0.5
+    /// per step over their last 15 (far beyond the safe walks, which stay within about [-2, 2]).
+    pub const SMALL: LateDivergence =
+        LateDivergence { obs_dim: 3, act_dim: 1, per_group: 8, len: 60, diverge_at: 45, drift: 0.5 };
+
+    /// Builds the set from `seed`: random walks ([`random_walk`]) alternating safe, unsafe; every
+    /// reward is 1.
+    ///
+    /// # Errors
+    /// When a dimension is zero (as [`EpisodeSet::new`]).
+    pub fn build(&self, seed: u64, meta: Meta) -> Result<EpisodeSet> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut set = EpisodeSet::new(self.obs_dim, self.act_dim, meta)?;
+        for i in 0..2 * self.per_group {
+            let crashed = i % 2 == 1;
+            let (mut obs, act) = random_walk(&mut rng, self.len, self.obs_dim, self.act_dim);
+            if crashed {
+                for t in self.diverge_at + 1..=self.len {
+                    obs[t * self.obs_dim] += self.drift * (t - self.diverge_at) as f32;
+                }
+            }
+            set.push_episode(&obs, &act, &vec![1.0; self.len], crashed)?;
+        }
+        Ok(set)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
