@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_atomic;
 use crate::error::{DefenderError, Result};
-use crate::npz::{Array, NpzReader, NpzWriter, Values, bad};
+use crate::npz::{Array, Header, NpzReader, NpzWriter, Values, bad};
 use crate::strategy::Mode;
 
 /// The `meta` array of an episode-set file: UTF-8 JSON describing the set. Every field is
@@ -389,26 +389,65 @@ impl EpisodeSet {
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let mut npz = NpzReader::open(path)?;
-        let mut need = |name: &'static str| -> Result<Array> {
-            npz.read(name)?.ok_or_else(|| bad(path, name, "an array of this name in the archive", "none"))
+        // Every header is checked (against its entry's size, then against the others and
+        // `ep_len`) before any large array is inflated: a file cannot make us allocate more than
+        // its own arrays hold, nor more than its shapes add up to.
+        let mut need = |name: &'static str| -> Result<Header> {
+            npz.header(name)?.ok_or_else(|| bad(path, name, "an array of this name in the archive", "none"))
         };
-        let obs = need("obs")?;
-        let act = need("act")?;
-        let rew = need("rew")?;
-        let ep_len = need("ep_len")?;
-        let crashed = need("crashed")?;
-        let meta = npz.read("meta")?;
+        let obs_h = need("obs")?;
+        let act_h = need("act")?;
+        let rew_h = need("rew")?;
+        let ep_len_h = need("ep_len")?;
+        let crashed_h = need("crashed")?;
 
-        let ep_len = match (ep_len.shape.len(), ep_len.values) {
-            (1, Values::Int(v)) => v,
-            (1, Values::U8(v)) => v.into_iter().map(i64::from).collect(),
-            (1, _) => return Err(bad(path, "ep_len", "dtype int64", ep_len.descr)),
-            _ => return Err(bad(path, "ep_len", "a 1-D array [E]", format!("shape {:?}", ep_len.shape))),
+        let e = match ep_len_h.shape.as_slice() {
+            [_] if !ep_len_h.is_int() => return Err(bad(path, "ep_len", "dtype int64", ep_len_h.descr)),
+            [e] => *e,
+            _ => return Err(bad(path, "ep_len", "a 1-D array [E]", format!("shape {:?}", ep_len_h.shape))),
         };
-        let e = ep_len.len();
         if e == 0 {
             return Err(bad(path, "ep_len", "at least one episode (an empty set is refused)", "shape [0]"));
         }
+        if !crashed_h.is_bool() {
+            return Err(bad(path, "crashed", "dtype bool", crashed_h.descr));
+        }
+        match crashed_h.shape.as_slice() {
+            [len] if *len == e => {}
+            [_] => {
+                return Err(bad(
+                    path,
+                    "crashed",
+                    &format!("shape [{e}] (one flag per episode)"),
+                    format!("shape {:?}", crashed_h.shape),
+                ));
+            }
+            _ => {
+                return Err(bad(
+                    path,
+                    "crashed",
+                    &format!("a 1-D array [{e}]"),
+                    format!("shape {:?}", crashed_h.shape),
+                ));
+            }
+        }
+        // Each episode has at least one reward: more episodes than rewards cannot add up.
+        if e > rew_h.len {
+            return Err(bad(
+                path,
+                "ep_len",
+                &format!(
+                    "at most {} episodes (one reward at least per episode; rew has {})",
+                    rew_h.len, rew_h.len
+                ),
+                format!("shape [{e}]"),
+            ));
+        }
+        let ep_len = match npz.read("ep_len")?.map(|a| a.values) {
+            Some(Values::Int(v)) => v,
+            Some(Values::U8(v)) => v.into_iter().map(i64::from).collect(),
+            _ => return Err(bad(path, "ep_len", "dtype int64", ep_len_h.descr)),
+        };
         if let Some((i, n)) = ep_len.iter().enumerate().find(|(_, n)| **n < 1) {
             return Err(bad(
                 path,
@@ -417,42 +456,45 @@ impl EpisodeSet {
                 format!("ep_len[{i}] = {n}"),
             ));
         }
-        let ep_len: Vec<usize> = ep_len.into_iter().map(|n| n as usize).collect();
-        let crashed = match (crashed.shape.as_slice(), crashed.values) {
-            ([len], Values::Bool(v)) if *len == e => v,
-            ([_], Values::Bool(_)) => {
-                return Err(bad(
-                    path,
-                    "crashed",
-                    &format!("shape [{e}] (one flag per episode)"),
-                    format!("shape {:?}", crashed.shape),
-                ));
-            }
-            (_, Values::Bool(_)) => {
-                return Err(bad(
-                    path,
-                    "crashed",
-                    &format!("a 1-D array [{e}]"),
-                    format!("shape {:?}", crashed.shape),
-                ));
-            }
-            _ => return Err(bad(path, "crashed", "dtype bool", crashed.descr)),
+        let ep_len: Vec<usize> =
+            ep_len.into_iter().map(|n| usize::try_from(n).unwrap_or(usize::MAX)).collect();
+        let total = ep_len.iter().try_fold(0usize, |acc, &n| acc.checked_add(n));
+        let Some((transitions, observations)) = total.and_then(|t| Some((t, t.checked_add(e)?))) else {
+            return Err(bad(
+                path,
+                "ep_len",
+                "transition counts whose sum fits in 64 bits",
+                "a sum that overflows",
+            ));
         };
-        let transitions: usize = ep_len.iter().sum();
-        let observations = transitions + e;
-        let (obs, obs_dim) = float_matrix(path, "obs", obs, observations, "sum(N_i + 1)")?;
-        let (act, act_dim) = float_matrix(path, "act", act, transitions, "sum(N_i)")?;
-        let rew = match rew.shape.as_slice() {
-            [len] if *len == transitions => floats(path, "rew", rew.values, &rew.descr)?,
+        let obs_dim = float_matrix(path, "obs", &obs_h, observations, "sum(N_i + 1)")?;
+        let act_dim = float_matrix(path, "act", &act_h, transitions, "sum(N_i)")?;
+        match rew_h.shape.as_slice() {
+            [len] if *len == transitions && rew_h.is_float() => {}
+            [len] if *len == transitions => {
+                return Err(bad(path, "rew", "dtype float32 (or float64)", rew_h.descr));
+            }
             _ => {
                 return Err(bad(
                     path,
                     "rew",
                     &format!("shape [{transitions}] (sum(N_i))"),
-                    format!("shape {:?}", rew.shape),
+                    format!("shape {:?}", rew_h.shape),
                 ));
             }
+        }
+        // Every shape adds up: now the data.
+        let mut read = |name: &'static str| -> Result<Array> {
+            npz.read(name)?.ok_or_else(|| bad(path, name, "an array of this name in the archive", "none"))
         };
+        let obs = floats(path, "obs", read("obs")?.values, &obs_h.descr)?;
+        let act = floats(path, "act", read("act")?.values, &act_h.descr)?;
+        let rew = floats(path, "rew", read("rew")?.values, &rew_h.descr)?;
+        let crashed = match read("crashed")?.values {
+            Values::Bool(v) => v,
+            _ => return Err(bad(path, "crashed", "dtype bool", crashed_h.descr)),
+        };
+        let meta = npz.read("meta")?;
         for (name, v) in [("obs", &obs), ("act", &act), ("rew", &rew)] {
             check_finite(path, name, v)?;
         }
@@ -551,26 +593,23 @@ fn floats(path: &Path, array: &'static str, values: Values, descr: &str) -> Resu
     }
 }
 
-fn float_matrix(
-    path: &Path,
-    array: &'static str,
-    a: Array,
-    rows: usize,
-    rule: &str,
-) -> Result<(Vec<f32>, usize)> {
-    match a.shape.as_slice() {
-        [r, c] if *r == rows && *c >= 1 => Ok((floats(path, array, a.values, &a.descr)?, *c)),
+fn float_matrix(path: &Path, array: &'static str, h: &Header, rows: usize, rule: &str) -> Result<usize> {
+    match h.shape.as_slice() {
+        [r, c] if *r == rows && *c >= 1 && h.is_float() => Ok(*c),
+        [r, c] if *r == rows && *c >= 1 => {
+            Err(bad(path, array, "dtype float32 (or float64)", h.descr.clone()))
+        }
         [_, c] if *c >= 1 => Err(bad(
             path,
             array,
             &format!("{rows} rows ({rule} over ep_len)"),
-            format!("shape {:?}", a.shape),
+            format!("shape {:?}", h.shape),
         )),
         _ => Err(bad(
             path,
             array,
             &format!("a 2-D array [{rule}, dim] with dim >= 1"),
-            format!("shape {:?}", a.shape),
+            format!("shape {:?}", h.shape),
         )),
     }
 }

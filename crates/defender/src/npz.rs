@@ -5,7 +5,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, Write};
 use std::path::{Path, PathBuf};
 
-use npyz::{DType, NpyFile, Order, TypeChar, WriterBuilder};
+use npyz::{DType, NpyFile, NpyHeader, Order, TypeChar, WriterBuilder};
 
 use crate::error::{DefenderError, Result};
 
@@ -32,36 +32,186 @@ pub(crate) struct Array {
     pub descr: String,
 }
 
+/// A deflated entry cannot expand more than about 1032:1; an archive whose directory claims more
+/// is lying (a zip bomb or a corrupt file) and is refused before anything is inflated.
+const MAX_DEFLATE_RATIO: u64 = 1100;
+
+/// What an array's `.npy` header declares, already checked against the size of its archive entry
+/// (so that nothing is allocated from a declared size the file cannot back).
+#[derive(Debug, Clone)]
+pub(crate) struct Header {
+    /// The declared shape.
+    pub shape: Vec<usize>,
+    /// Number of elements (the product of `shape`, known not to overflow).
+    pub len: usize,
+    /// numpy's dtype string (`<f4`, `<i8`, `|b1` ...).
+    pub descr: String,
+    type_char: TypeChar,
+    size: u64,
+}
+
+impl Header {
+    /// A float32 or float64 array.
+    pub fn is_float(&self) -> bool {
+        self.type_char == TypeChar::Float && matches!(self.size, 4 | 8)
+    }
+
+    /// A signed or unsigned integer array (uint8 included).
+    pub fn is_int(&self) -> bool {
+        matches!(self.type_char, TypeChar::Int | TypeChar::Uint) && matches!(self.size, 1 | 2 | 4 | 8)
+    }
+
+    /// A bool array.
+    pub fn is_bool(&self) -> bool {
+        self.type_char == TypeChar::Bool && self.size == 1
+    }
+}
+
 /// An open `.npz` archive.
 pub(crate) struct NpzReader {
     path: PathBuf,
+    file_len: u64,
     zip: zip::ZipArchive<BufReader<File>>,
 }
+
+/// Counts the bytes read through it (the length of a `.npy` header).
+struct Counting<R> {
+    inner: R,
+    count: u64,
+}
+
+impl<R: Read> Read for Counting<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.count += n as u64;
+        Ok(n)
+    }
+}
+
+type Entry<'a> = zip::read::ZipFile<'a, BufReader<File>>;
 
 impl NpzReader {
     pub fn open(path: &Path) -> Result<Self> {
         let file = File::open(path).map_err(|e| DefenderError::io(path, e))?;
+        let file_len = file.metadata().map_err(|e| DefenderError::io(path, e))?.len();
         let zip = zip::ZipArchive::new(BufReader::new(file)).map_err(|e| DefenderError::Format {
             path: path.to_owned(),
             what: format!("not a .npz (zip) archive: {e}"),
         })?;
-        Ok(Self { path: path.to_owned(), zip })
+        Ok(Self { path: path.to_owned(), file_len, zip })
     }
 
-    /// Reads `name`, or `None` if the archive has no such array.
-    pub fn read(&mut self, name: &'static str) -> Result<Option<Array>> {
+    /// The header of `name` (only its first bytes are inflated), or `None` if the archive has no
+    /// such array.
+    ///
+    /// # Errors
+    /// An unreadable entry or header, a dtype this format cannot hold, or a declared shape whose
+    /// data does not fill the entry exactly (a truncated, padded or lying file).
+    pub fn header(&mut self, name: &'static str) -> Result<Option<Header>> {
+        Ok(self.entry(name)?.map(|(_, header, _)| header))
+    }
+
+    fn entry(&mut self, name: &'static str) -> Result<Option<(NpyHeader, Header, Entry<'_>)>> {
         let path = self.path.clone();
+        let file_len = self.file_len;
+        let format = |what: String| DefenderError::Format {
+            path: path.clone(),
+            what: format!("array '{name}': {what}"),
+        };
         let entry = match self.zip.by_name(&format!("{name}.npy")) {
             Ok(entry) => entry,
             Err(zip::result::ZipError::FileNotFound) => return Ok(None),
-            Err(e) => {
-                return Err(DefenderError::Format {
-                    path,
-                    what: format!("array '{name}': unreadable zip entry: {e}"),
-                });
+            Err(e) => return Err(format(format!("unreadable zip entry: {e}"))),
+        };
+        let (size, packed) = (entry.size(), entry.compressed_size());
+        if packed > file_len {
+            return Err(format(format!(
+                "the archive claims {packed} compressed bytes in a file of {file_len} bytes (the file is truncated or corrupt)"
+            )));
+        }
+        let limit = match entry.compression() {
+            zip::CompressionMethod::Stored => packed,
+            _ => packed.saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1024),
+        };
+        if size > limit {
+            return Err(format(format!(
+                "the archive claims {size} bytes from {packed} compressed bytes, more than compression can produce (a zip bomb or a corrupt file)"
+            )));
+        }
+        let mut counting = Counting { inner: entry, count: 0 };
+        let npy = NpyHeader::from_reader(&mut counting).map_err(|e| format(format!("bad .npy: {e}")))?;
+        let Counting { inner: entry, count: header_len } = counting;
+        let dtype = npy.dtype();
+        let descr = dtype.descr();
+        let ts = match &dtype {
+            DType::Plain(ts) => ts.clone(),
+            _ => {
+                return Err(bad(&path, name, "a plain numeric or bool dtype (no records, no objects)", descr));
             }
         };
-        read_npy(entry, &path, name).map(Some)
+        let item = ts.size_field();
+        let (type_char, size_ok) = (ts.type_char(), matches!(item, 1 | 2 | 4 | 8));
+        if !size_ok || !matches!(type_char, TypeChar::Float | TypeChar::Int | TypeChar::Uint | TypeChar::Bool)
+        {
+            return Err(bad(&path, name, "float32, float64, an integer type, bool or uint8", descr));
+        }
+        if npy.order() == Order::Fortran && npy.shape().len() > 2 {
+            return Err(bad(
+                &path,
+                name,
+                "a C-ordered array (or Fortran-ordered with at most 2 dimensions)",
+                "Fortran order",
+            ));
+        }
+        let declared = format!("shape {:?} of {descr}", npy.shape());
+        let len = npy.shape().iter().try_fold(1u64, |acc, &d| acc.checked_mul(d));
+        let bytes = len.and_then(|n| n.checked_mul(item));
+        let (Some(len), Some(bytes)) = (len, bytes) else {
+            return Err(bad(&path, name, "a shape whose size fits in memory", declared));
+        };
+        let data = size.saturating_sub(header_len);
+        if bytes != data || header_len > size {
+            return Err(bad(
+                &path,
+                name,
+                &format!("as many data bytes as its header declares ({declared} = {bytes} bytes)"),
+                format!("{data} bytes in the archive (the file is truncated, padded or corrupt)"),
+            ));
+        }
+        let (Ok(len), Ok(shape)) = (
+            usize::try_from(len),
+            npy.shape().iter().map(|&d| usize::try_from(d)).collect::<std::result::Result<Vec<_>, _>>(),
+        ) else {
+            return Err(bad(&path, name, "a shape whose size fits in memory", declared));
+        };
+        let header = Header { shape, len, descr, type_char, size: item };
+        Ok(Some((npy, header, entry)))
+    }
+
+    /// Reads `name`, or `None` if the archive has no such array. The header is checked against
+    /// the entry's size first ([`NpzReader::header`]); then the data is read and the entry's
+    /// checksum verified.
+    pub fn read(&mut self, name: &'static str) -> Result<Option<Array>> {
+        let path = self.path.clone();
+        let Some((npy, header, mut entry)) = self.entry(name)? else {
+            return Ok(None);
+        };
+        let order = npy.order();
+        let values = read_values(NpyFile::with_header(npy, &mut entry), &header, &path, name)?;
+        // One more read: the entry must end here, and reaching its end verifies its CRC-32.
+        let mut probe = [0u8; 1];
+        match entry.read(&mut probe) {
+            Ok(0) => {}
+            Ok(_) => {
+                return Err(data_error(&path, name, std::io::Error::other("data beyond its declared shape")));
+            }
+            Err(e) => return Err(data_error(&path, name, e)),
+        }
+        let mut array = Array { shape: header.shape, values, descr: header.descr };
+        if order == Order::Fortran && array.shape.len() == 2 {
+            array.values = transpose(array.values, array.shape[0], array.shape[1]);
+        }
+        Ok(Some(array))
     }
 }
 
@@ -75,66 +225,48 @@ pub(crate) fn bad(path: &Path, array: &'static str, expected: &str, got: impl In
     }
 }
 
-fn read_npy(reader: impl Read, path: &Path, name: &'static str) -> Result<Array> {
-    let npy = NpyFile::new(reader).map_err(|e| DefenderError::Format {
-        path: path.to_owned(),
-        what: format!("array '{name}': bad .npy: {e}"),
-    })?;
-    let shape: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
-    let order = npy.order();
-    let dtype = npy.dtype();
-    let descr = dtype.descr();
-    let ts = match &dtype {
-        DType::Plain(ts) => ts.clone(),
-        _ => return Err(bad(path, name, "a plain numeric or bool dtype (no records, no objects)", descr)),
+fn data_error(path: &Path, name: &str, e: std::io::Error) -> DefenderError {
+    let what = match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => {
+            "the data ends before its declared shape is filled (the file is truncated or corrupt)".to_owned()
+        }
+        _ if e.to_string().contains("checksum") => "checksum mismatch (the file is corrupt)".to_owned(),
+        _ => e.to_string(),
     };
-    let size = ts.size_field();
-    let data_err = |e: std::io::Error| DefenderError::Format {
-        path: path.to_owned(),
-        what: format!("array '{name}': {e}"),
-    };
-    let values = match (ts.type_char(), size) {
-        (TypeChar::Float, 4) => Values::F32(npy.into_vec::<f32>().map_err(data_err)?),
-        (TypeChar::Float, 8) => Values::F64(npy.into_vec::<f64>().map_err(data_err)?),
-        (TypeChar::Bool, 1) => Values::Bool(npy.into_vec::<bool>().map_err(data_err)?),
-        (TypeChar::Uint, 1) => Values::U8(npy.into_vec::<u8>().map_err(data_err)?),
-        (TypeChar::Int, 1) => {
-            Values::Int(npy.into_vec::<i8>().map_err(data_err)?.into_iter().map(i64::from).collect())
-        }
-        (TypeChar::Int, 2) => {
-            Values::Int(npy.into_vec::<i16>().map_err(data_err)?.into_iter().map(i64::from).collect())
-        }
-        (TypeChar::Int, 4) => {
-            Values::Int(npy.into_vec::<i32>().map_err(data_err)?.into_iter().map(i64::from).collect())
-        }
-        (TypeChar::Int, 8) => Values::Int(npy.into_vec::<i64>().map_err(data_err)?),
-        (TypeChar::Uint, 2) => {
-            Values::Int(npy.into_vec::<u16>().map_err(data_err)?.into_iter().map(i64::from).collect())
-        }
-        (TypeChar::Uint, 4) => {
-            Values::Int(npy.into_vec::<u32>().map_err(data_err)?.into_iter().map(i64::from).collect())
-        }
-        (TypeChar::Uint, 8) => Values::Int(
-            npy.into_vec::<u64>()
-                .map_err(data_err)?
-                .into_iter()
-                .map(|v| i64::try_from(v).unwrap_or(i64::MAX))
-                .collect(),
-        ),
-        _ => return Err(bad(path, name, "float32, float64, an integer type, bool or uint8", descr)),
-    };
-    let mut array = Array { shape, values, descr };
-    if order == Order::Fortran && array.shape.len() == 2 {
-        array.values = transpose(array.values, array.shape[0], array.shape[1]);
-    } else if order == Order::Fortran && array.shape.len() > 2 {
-        return Err(bad(
-            path,
-            name,
-            "a C-ordered array (or Fortran-ordered with at most 2 dimensions)",
-            "Fortran order",
-        ));
+    DefenderError::Format { path: path.to_owned(), what: format!("array '{name}': {what}") }
+}
+
+fn collect<T: npyz::Deserialize, U>(
+    npy: NpyFile<impl Read>,
+    len: usize,
+    map: impl Fn(T) -> U,
+) -> std::io::Result<Vec<U>> {
+    let mut out = Vec::with_capacity(len);
+    for v in npy.data::<T>().map_err(std::io::Error::other)? {
+        out.push(map(v?));
     }
-    Ok(array)
+    Ok(out)
+}
+
+fn read_values(npy: NpyFile<impl Read>, header: &Header, path: &Path, name: &'static str) -> Result<Values> {
+    let n = header.len;
+    let err = |e| data_error(path, name, e);
+    Ok(match (header.type_char, header.size) {
+        (TypeChar::Float, 4) => Values::F32(collect(npy, n, |v: f32| v).map_err(err)?),
+        (TypeChar::Float, 8) => Values::F64(collect(npy, n, |v: f64| v).map_err(err)?),
+        (TypeChar::Bool, 1) => Values::Bool(collect(npy, n, |v: bool| v).map_err(err)?),
+        (TypeChar::Uint, 1) => Values::U8(collect(npy, n, |v: u8| v).map_err(err)?),
+        (TypeChar::Int, 1) => Values::Int(collect(npy, n, |v: i8| i64::from(v)).map_err(err)?),
+        (TypeChar::Int, 2) => Values::Int(collect(npy, n, |v: i16| i64::from(v)).map_err(err)?),
+        (TypeChar::Int, 4) => Values::Int(collect(npy, n, |v: i32| i64::from(v)).map_err(err)?),
+        (TypeChar::Int, 8) => Values::Int(collect(npy, n, |v: i64| v).map_err(err)?),
+        (TypeChar::Uint, 2) => Values::Int(collect(npy, n, |v: u16| i64::from(v)).map_err(err)?),
+        (TypeChar::Uint, 4) => Values::Int(collect(npy, n, |v: u32| i64::from(v)).map_err(err)?),
+        (TypeChar::Uint, 8) => {
+            Values::Int(collect(npy, n, |v: u64| i64::try_from(v).unwrap_or(i64::MAX)).map_err(err)?)
+        }
+        _ => return Err(bad(path, name, "float32, float64, an integer type, bool or uint8", &header.descr)),
+    })
 }
 
 /// Fortran-ordered `rows x cols` values to C order.
