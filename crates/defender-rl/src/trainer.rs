@@ -59,6 +59,10 @@ pub struct TrainerConfig {
     /// Needs a checkpoint directory ([`Trainer::with_checkpoint_dir`]).
     #[serde(default)]
     pub checkpoint_every_episodes: u64,
+    /// Also write a checkpoint at the first episode end after this many wall-clock seconds since
+    /// the last one (0: never by time), so that a kill -9 loses at most that much work.
+    #[serde(default)]
+    pub checkpoint_every_seconds: u64,
 }
 
 fn default_eval_episodes() -> usize {
@@ -80,6 +84,7 @@ impl TrainerConfig {
             eval_episodes: default_eval_episodes(),
             final_eval_episodes: default_final_eval_episodes(),
             checkpoint_every_episodes: 0,
+            checkpoint_every_seconds: 0,
         }
     }
 }
@@ -410,6 +415,40 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         &self.state.config
     }
 
+    /// Changes the budget of a run that is not complete, e.g. to extend a resumed run. The unit
+    /// stays the same and the new budget may not be below what was already trained.
+    ///
+    /// # Errors
+    /// [`RlError::Config`] naming what is wrong; the budget is then unchanged.
+    pub fn set_budget(&mut self, budget: Budget) -> Result<(), RlError> {
+        let done = Budget::Steps(self.state.total_steps);
+        let ok = match (self.state.config.budget, budget) {
+            (Budget::Steps(_), Budget::Steps(n)) => n >= self.state.total_steps,
+            (Budget::Episodes(_), Budget::Episodes(n)) => n >= self.state.episodes.len() as u64,
+            _ => false,
+        };
+        if self.state.complete && budget != self.state.config.budget {
+            return Err(RlError::Config {
+                field: "budget",
+                value: format!("{budget:?}"),
+                expected: "the budget of the complete run (its final evaluation is made); a different budget needs a new run",
+            });
+        }
+        if !ok {
+            return Err(RlError::Config {
+                field: "budget",
+                value: format!(
+                    "{budget:?} (the run has {:?}, done: {done:?}, {} episodes)",
+                    self.state.config.budget,
+                    self.state.episodes.len()
+                ),
+                expected: "a budget in the run's unit, not less than what was already trained",
+            });
+        }
+        self.state.config.budget = budget;
+        Ok(())
+    }
+
     /// Whether the budget has been spent and the final evaluation run.
     pub fn is_complete(&self) -> bool {
         self.state.complete
@@ -434,6 +473,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         let act_dim = self.agent.act_dim();
         let mut action = vec![0.0f32; act_dim];
         let mut env_action = vec![0.0f64; act_dim];
+        let mut last_checkpoint = Instant::now();
         while !self.state.complete && !self.budget_spent() {
             if hooks.should_stop() {
                 self.state.wall_seconds = wall(&started);
@@ -499,9 +539,13 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 }
             }
             let every = self.state.config.checkpoint_every_episodes;
-            if every > 0 && (self.state.episodes.len() as u64).is_multiple_of(every) && !self.budget_spent() {
+            let by_episodes = every > 0 && (self.state.episodes.len() as u64).is_multiple_of(every);
+            let seconds = self.state.config.checkpoint_every_seconds;
+            let by_time = seconds > 0 && last_checkpoint.elapsed().as_secs() >= seconds;
+            if (by_episodes || by_time) && !self.budget_spent() {
                 self.state.wall_seconds = wall(&started);
                 self.checkpoint(hooks)?;
+                last_checkpoint = Instant::now();
             }
         }
         if !self.state.complete {

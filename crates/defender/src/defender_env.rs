@@ -17,6 +17,10 @@ use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
 use crate::strategy::{Mode, Strategy};
 
+/// The largest `|R_task|` accepted: far beyond any task's per-step reward, small enough that
+/// Q-learning targets stay finite in f32.
+pub const MAX_ABS_R_TASK: f64 = 1e6;
+
 /// DEFENDER's settings (the `[defender]` section of a run's configuration).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -135,8 +139,13 @@ impl<E: Env> DefenderEnv<E> {
         };
         let prepared = Demonstrations::new(demos, config.mode, config.cost)?;
         let r_task = match config.r_task {
-            Some(r) if r.is_finite() => r,
-            Some(r) => return Err(DefenderError::Config(format!("r_task must be finite, got {r}"))),
+            Some(r) if r.is_finite() && r.abs() <= MAX_ABS_R_TASK => r,
+            Some(r) => {
+                return Err(DefenderError::Config(format!(
+                    "r_task = {r} is out of range: it must be finite and at most {MAX_ABS_R_TASK:e} in \
+                     absolute value (it becomes a learning target; a huge value makes the critics diverge)"
+                )));
+            }
             None => f64::from(prepared.min_reward()),
         };
         let filter = Filter::new(&prepared, config.strategy)?;
