@@ -17,7 +17,7 @@ pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
 pub use render::{CSV_HEADER, Format, render};
 pub use run::{
     Budget, CONFIG_FILE, EVAL_FILE, EVAL_HEADER, Episode, Evaluation, Filter, METRICS_FILE, METRICS_HEADER,
-    Mode, Outcome, Run, RunConfig, SUMMARY_FILE, Summary,
+    Mode, Outcome, Run, RunConfig, SUMMARY_FILE, StrategySelection, Summary,
 };
 pub use stats::{Stat, interpolate, linspace, rolling_mean};
 pub use table::{Row, Table};

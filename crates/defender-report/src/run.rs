@@ -172,6 +172,42 @@ pub struct Summary {
     pub steps_per_second: f64,
     /// `false` while the run is in progress or after it was stopped.
     pub complete: bool,
+    /// How the strategy was chosen, for a run configured with `strategy = "auto"`; absent
+    /// otherwise. The same record as `config.toml`'s `[defender.selection]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<StrategySelection>,
+}
+
+/// How `defender train --strategy auto` chose the strategy of a run (`defender select`'s
+/// criterion, docs/decisions.md): the `[defender.selection]` table of `config.toml` and the
+/// `selection` object of `summary.json`. The chosen strategy itself is the run's `strategy`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StrategySelection {
+    /// `"auto"`.
+    pub chosen_by: String,
+    /// Strategies ranked.
+    pub candidates: usize,
+    /// Whether the strategies of the Equal window were among them.
+    pub equal: bool,
+    /// L: the lead time (steps before the crash) a prevented crash needed.
+    pub min_lead: usize,
+    /// Safe demonstrations used.
+    pub safe_demos: usize,
+    /// Unsafe demonstrations used.
+    pub unsafe_demos: usize,
+    /// The chosen strategy's held-out safe demonstrations filtered / safe ones.
+    pub false_alarm_rate: f64,
+    /// Its held-out unsafe demonstrations filtered in time / unsafe ones.
+    pub crash_prevention_rate: f64,
+    /// Mean fraction of the held-out safe demonstrations executed before a filtered step.
+    pub safe_allowed: f64,
+    /// Mean lead time of the prevented crashes, in steps.
+    pub mean_lead: f64,
+    /// `(1 - false_alarm_rate) x crash_prevention_rate`.
+    pub score: f64,
+    /// Seconds the selection took.
+    pub seconds: f64,
 }
 
 impl Summary {

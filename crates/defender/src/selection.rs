@@ -49,6 +49,69 @@ use crate::score::StrategyTally;
 use crate::strategy::{Mode, Strategy};
 use crate::window::Window;
 
+/// The `strategy` of a run's configuration: a fixed `SAFE/UNSAFE` strategy, or `auto` (chosen by
+/// [`select`] on the run's demonstrations before training). Written and parsed as that string.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StrategyChoice {
+    /// `auto`: the best strategy of [`select`].
+    Auto,
+    /// A given strategy.
+    Fixed(Strategy),
+}
+
+impl StrategyChoice {
+    /// The fixed strategy; `None` for `auto`.
+    pub fn fixed(self) -> Option<Strategy> {
+        match self {
+            StrategyChoice::Auto => None,
+            StrategyChoice::Fixed(s) => Some(s),
+        }
+    }
+}
+
+impl From<Strategy> for StrategyChoice {
+    fn from(s: Strategy) -> Self {
+        StrategyChoice::Fixed(s)
+    }
+}
+
+impl std::fmt::Display for StrategyChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StrategyChoice::Auto => f.write_str("auto"),
+            StrategyChoice::Fixed(s) => s.fmt(f),
+        }
+    }
+}
+
+impl std::str::FromStr for StrategyChoice {
+    type Err = DefenderError;
+    fn from_str(s: &str) -> Result<Self> {
+        if s == "auto" {
+            return Ok(StrategyChoice::Auto);
+        }
+        s.parse().map(StrategyChoice::Fixed).map_err(|e| match e {
+            DefenderError::UnknownName { kind, name, valid } => {
+                DefenderError::UnknownName { kind, name, valid: format!("auto, or {valid}") }
+            }
+            other => other,
+        })
+    }
+}
+
+impl serde::Serialize for StrategyChoice {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for StrategyChoice {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 /// What [`select`] ranks and how.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SelectionConfig {
@@ -365,6 +428,20 @@ mod tests {
             t.add(len, crashed, k, min_lead);
         }
         t.score("MinBoth/MinBoth".parse().unwrap(), Mode::State, None)
+    }
+
+    #[test]
+    fn strategy_choices_parse_and_print() {
+        assert_eq!("auto".parse::<StrategyChoice>().unwrap(), StrategyChoice::Auto);
+        let s: StrategyChoice = "MeanDemoW5/MeanDemoW10".parse().unwrap();
+        assert_eq!(s.fixed(), Some("MeanDemoW5/MeanDemoW10".parse().unwrap()));
+        assert_eq!(s.to_string(), "MeanDemoW5/MeanDemoW10");
+        assert_eq!(StrategyChoice::Auto.to_string(), "auto");
+        let err = "Auto".parse::<StrategyChoice>().unwrap_err().to_string();
+        assert!(err.contains("auto, or SAFE/UNSAFE"), "{err}");
+        assert_eq!(serde_json::to_string(&StrategyChoice::Auto).unwrap(), "\"auto\"");
+        let parsed: StrategyChoice = serde_json::from_str("\"MinBoth/MinBoth\"").unwrap();
+        assert_eq!(parsed, StrategyChoice::Fixed("MinBoth/MinBoth".parse().unwrap()));
     }
 
     #[test]

@@ -1,0 +1,199 @@
+//! `defender select`: rank the filtering strategies of one task from its demonstrations alone
+//! (leave-one-out), optionally with the ablation score on recorded episodes; and the `auto`
+//! strategy of `defender train`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use defender::selection::{Selection, SelectionConfig, StrategyScore, select};
+use defender::{EpisodeSet, Mode};
+use defender_report::StrategySelection;
+
+use crate::progress;
+
+/// Arguments of `defender select`.
+#[derive(Debug, Args)]
+#[command(after_help = "Criterion (docs/decisions.md, \"Choosing the strategy automatically\"):
+  Leave-one-out over the demonstrations. Each demonstration is replayed step by step against a
+  filter built from all the others (its own group without it, the other group whole).
+  - false_alarm_rate: held-out SAFE demonstrations filtered at any step, as a fraction of them
+    (a false alarm would stop an agent that behaves like the demonstrator);
+  - crash_prevention_rate: held-out UNSAFE demonstrations of T transitions filtered at a step k
+    with lead time T - k >= min(L, T), L = --min-lead (default 1: any step before the crash);
+  - safe_allowed / unsafe_allowed: mean fraction (k + 1) / T of each held-out demonstration
+    executed before its first filtered step (1 when never filtered); mean_lead: mean T - k of the
+    prevented crashes;
+  - demo_score = (1 - false_alarm_rate) x crash_prevention_rate;
+  - with --episodes: score = demo_score x the ablation score on the recorded episodes
+    (SPEC section 7: mean episode-length ratio x safe-episode rate); else score = demo_score.
+  Ranking: strategies that filter every held-out safe demonstration come last and are never
+  chosen; then score, highest first; ties by safe_allowed, then unsafe_allowed (higher: the less
+  aggressive of two equally good strategies), then the name. The CSV columns are described in
+  docs/run-directory.md (\"selection.csv\").
+
+Examples:
+  defender select --demos data/demos/Hopper-v5.npz --no-equal --out selection.csv
+  defender select --demos data/demos/Hopper-v5.npz --mode state-action --num-demos 20 --out sel.csv
+  defender select --demos data/demos/Hopper-v5.npz --episodes hopper-episodes.npz --out sel.csv
+  defender train --env Hopper-v5 --strategy auto --steps 300000 --out runs/hopper-auto")]
+pub struct SelectArgs {
+    /// Demonstration set of the task (.npz, SPEC section 8), with >= 2 demonstrations per group.
+    #[arg(long)]
+    pub demos: PathBuf,
+    /// Recorded episodes of an agent on the same task (e.g. `defender train --record-episodes`):
+    /// the ablation score on them multiplies the demonstrations' score.
+    #[arg(long)]
+    pub episodes: Option<PathBuf>,
+    /// Trajectory elements: states, or state-action pairs.
+    #[arg(long, default_value = "state", value_parser = ["state", "state-action"])]
+    pub mode: String,
+    /// Use only the first N demonstrations of each group (as `defender train --num-demos`).
+    #[arg(long)]
+    pub num_demos: Option<usize>,
+    /// Leave out the strategies that use the Equal window (O(n^2) per step: most of the time).
+    #[arg(long)]
+    pub no_equal: bool,
+    /// `all`, or a comma-separated list of SAFE/UNSAFE strategies to rank.
+    #[arg(long, default_value = "all")]
+    pub strategies: String,
+    /// L: steps before the crash by which a held-out unsafe demonstration must be filtered.
+    #[arg(long, default_value_t = 1)]
+    pub min_lead: usize,
+    /// Rows to print.
+    #[arg(long, default_value_t = 10)]
+    pub top: usize,
+    /// Where to write the ranking (CSV, docs/run-directory.md).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `defender select`.
+pub fn run(args: SelectArgs) -> Result<()> {
+    let mode: Mode = args.mode.parse()?;
+    let config = SelectionConfig {
+        mode,
+        num_demos: args.num_demos,
+        equal: !args.no_equal,
+        strategies: if args.strategies == "all" {
+            None
+        } else {
+            Some(defender::Strategy::parse_list(&args.strategies)?)
+        },
+        min_lead: args.min_lead,
+        cost: Default::default(),
+    };
+    let demos = EpisodeSet::load(&args.demos)?;
+    let episodes = args.episodes.as_ref().map(EpisodeSet::load).transpose()?;
+    let task = demos.meta().env_id.clone().unwrap_or_else(|| args.demos.display().to_string());
+    let start = Instant::now();
+    let selection = run_selection(&demos, episodes.as_ref(), &config, &task)
+        .with_context(|| format!("choosing a strategy for {}", args.demos.display()))?;
+    selection.write_csv(&args.out)?;
+    print_top(&selection.rows, args.top);
+    let (safe, unsafe_) = selection.demos;
+    println!(
+        "{} strategies ranked from {safe} + {unsafe_} demonstrations{} in {:.1}s -> {}",
+        selection.rows.len(),
+        if selection.episodes > 0 {
+            format!(" and {} recorded episodes", selection.episodes)
+        } else {
+            String::new()
+        },
+        start.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    match selection.best() {
+        Some(best) => println!("chosen: {} ({mode})", best.strategy),
+        None => println!("no strategy chosen: every one filters every held-out safe demonstration"),
+    }
+    Ok(())
+}
+
+/// Runs the selection with a progress bar on a terminal.
+fn run_selection(
+    demos: &EpisodeSet,
+    episodes: Option<&EpisodeSet>,
+    config: &SelectionConfig,
+    task: &str,
+) -> Result<Selection> {
+    let total = config.num_demos.map_or(demos.len(), |n| 2 * n) + episodes.map_or(0, EpisodeSet::len);
+    let bar = progress::bar(total as u64, "replays");
+    bar.set_message(format!(
+        "{task}: {} strategies, {} mode, leave-one-out",
+        config.candidates().len(),
+        config.mode
+    ));
+    let selection = select(demos, episodes, config, &|p| bar.set_position(p.done as u64));
+    bar.finish_and_clear();
+    Ok(selection?)
+}
+
+fn print_top(rows: &[StrategyScore], top: usize) {
+    let width = rows.iter().take(top).map(|r| r.strategy.to_string().len()).max().unwrap_or(8).max(8);
+    println!(
+        "{:>4}  {:<width$}  {:>11}  {:>10}  {:>12}  {:>9}  {:>8}  {:>8}",
+        "rank", "strategy", "false_alarm", "prevention", "safe_allowed", "mean_lead", "ablation", "score"
+    );
+    for r in rows.iter().take(top) {
+        println!(
+            "{:>4}  {:<width$}  {:>11.4}  {:>10.4}  {:>12.4}  {:>9.1}  {:>8}  {:>8.4}",
+            r.rank,
+            r.strategy.to_string(),
+            r.false_alarm_rate,
+            r.crash_prevention_rate,
+            r.safe_allowed,
+            r.mean_lead,
+            r.ablation_score.map_or("-".to_string(), |v| format!("{v:.4}")),
+            r.score
+        );
+    }
+}
+
+/// `strategy = "auto"` in a run: chooses the strategy on the run's demonstrations (its
+/// `num_demos`, `mode` and cost options; without the Equal window, which would cost minutes to
+/// hours before training starts) and returns it with its record for `config.toml` and
+/// `summary.json`.
+pub fn choose_for_run(
+    demos: &EpisodeSet,
+    mode: Mode,
+    num_demos: Option<usize>,
+    cost: defender::CostOptions,
+) -> Result<(defender::Strategy, StrategySelection)> {
+    let config = SelectionConfig { mode, num_demos, equal: false, cost, ..Default::default() };
+    let task = demos.meta().env_id.clone().unwrap_or_else(|| demos.source().display().to_string());
+    let start = Instant::now();
+    let selection = run_selection(demos, None, &config, &task)
+        .with_context(|| format!("strategy = \"auto\": choosing a strategy for {task}"))?;
+    let Some(best) = selection.best() else {
+        bail!(
+            "strategy = \"auto\": every strategy filters every held-out safe demonstration of {}; \
+             give --strategy SAFE/UNSAFE",
+            demos.source().display()
+        );
+    };
+    let record = StrategySelection {
+        chosen_by: "auto".into(),
+        candidates: selection.rows.len(),
+        equal: config.equal,
+        min_lead: config.min_lead,
+        safe_demos: selection.demos.0,
+        unsafe_demos: selection.demos.1,
+        false_alarm_rate: best.false_alarm_rate,
+        crash_prevention_rate: best.crash_prevention_rate,
+        safe_allowed: best.safe_allowed,
+        mean_lead: best.mean_lead,
+        score: best.score,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    eprintln!(
+        "strategy auto: chose {} ({mode}) of {} strategies in {:.1}s: false alarms {:.1}%, crashes prevented {:.1}%",
+        best.strategy,
+        record.candidates,
+        record.seconds,
+        100.0 * record.false_alarm_rate,
+        100.0 * record.crash_prevention_rate
+    );
+    Ok((best.strategy, record))
+}

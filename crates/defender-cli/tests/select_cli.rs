@@ -1,0 +1,201 @@
+//! `defender select` and `defender train --strategy auto` through the binary: the ranking file and
+//! table, clear errors, and a run that records the strategy it chose and keeps it when resumed.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const ENV_ID: &str = "InvertedDoublePendulum-v5";
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
+    c.env("DEFENDER_NN_THREADS", "1");
+    c
+}
+
+fn text(out: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+fn ok(args: &[&str]) -> Output {
+    let out = bin().args(args).output().unwrap();
+    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
+    out
+}
+
+fn refused(args: &[&str], expect: &[&str]) {
+    let out = bin().args(args).output().unwrap();
+    let msg = text(&out);
+    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
+    for e in expect {
+        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
+    }
+    assert!(!msg.contains("panicked"), "{msg}");
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn shipped_demos() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos").join(format!("{ENV_ID}.npz"))
+}
+
+/// The rank-1 row of a selection CSV, as (strategy, false_alarm_rate, crash_prevention_rate).
+fn first_row(csv: &Path) -> (String, f64, f64) {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(row[0], "1");
+    (row[1].to_string(), row[5].parse().unwrap(), row[6].parse().unwrap())
+}
+
+#[test]
+fn select_ranks_every_strategy_and_prints_the_top() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = shipped_demos();
+    let csv = dir.path().join("sel.csv");
+    let out = ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--out", s(&csv)]);
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.contains("rank  strategy") && stdout.contains("false_alarm"), "{stdout}");
+    assert!(stdout.contains("441 strategies ranked from 3 + 3 demonstrations"), "{stdout}");
+    let (best, fa, _) = first_row(&csv);
+    assert!(stdout.contains(&format!("chosen: {best} (state)")), "{stdout}");
+    assert!(fa < 1.0);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "rank,strategy,safe_method,unsafe_method,mode,false_alarm_rate,crash_prevention_rate,\
+         safe_allowed,unsafe_allowed,mean_lead,demo_score,ablation_score,score,eligible"
+    );
+    assert_eq!(lines.count(), 441);
+    assert!(!text.contains("Equal"));
+    // Deterministic through the binary too.
+    let again = dir.path().join("again.csv");
+    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--out", s(&again)]);
+    assert_eq!(text, std::fs::read_to_string(&again).unwrap());
+    // --help explains the criterion.
+    let help = String::from_utf8(ok(&["select", "--help"]).stdout).unwrap();
+    for word in ["Leave-one-out", "false_alarm_rate", "crash_prevention_rate", "demo_score", "--episodes"] {
+        assert!(help.contains(word), "--help lacks {word}");
+    }
+}
+
+#[test]
+fn select_refuses_bad_input_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = shipped_demos();
+    let csv = dir.path().join("sel.csv");
+    refused(
+        &["select", "--demos", s(&demos), "--num-demos", "1", "--out", s(&csv)],
+        &["the safe group has 1 demonstration", "at least 2 per group"],
+    );
+    // One group only.
+    let set = defender::EpisodeSet::load(&demos).unwrap();
+    let mut safe_only = defender::EpisodeSet::new(set.obs_dim(), set.act_dim(), set.meta().clone()).unwrap();
+    for e in set.safe().take(3) {
+        safe_only.push_episode(e.obs, e.act, e.rew, false).unwrap();
+    }
+    let path = dir.path().join("safe_only.npz");
+    safe_only.save(&path).unwrap();
+    refused(&["select", "--demos", s(&path), "--out", s(&csv)], &["unsafe group is empty"]);
+    refused(
+        &["select", "--demos", s(&demos), "--strategies", "MinBoth/Nope", "--out", s(&csv)],
+        &["unknown strategy 'MinBoth/Nope'"],
+    );
+    assert!(!csv.exists());
+}
+
+/// Waits until `path` exists (at most a minute).
+fn wait_for(path: &Path) {
+    let start = Instant::now();
+    while !path.exists() && start.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = shipped_demos();
+    let csv = dir.path().join("sel.csv");
+    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--out", s(&csv)]);
+    let (best, fa, cp) = first_row(&csv);
+
+    let run = dir.path().join("run");
+    let args = [
+        "train",
+        "--env",
+        ENV_ID,
+        "--strategy",
+        "auto",
+        "--num-demos",
+        "3",
+        "--steps",
+        "2500",
+        "--checkpoint-every",
+        "40",
+        "--seed",
+        "1",
+        "--out",
+        s(&run),
+    ];
+    let mut child = bin().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    wait_for(&run.join("summary.json"));
+    std::thread::sleep(Duration::from_millis(400));
+    let status = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let code = child.wait().unwrap().code();
+    assert!(code == Some(143) || code == Some(0), "{code:?}");
+
+    // config.toml: the chosen strategy (the one `defender select` ranks first) and its record.
+    let config: toml::Value =
+        toml::from_str(&std::fs::read_to_string(run.join("config.toml")).unwrap()).unwrap();
+    let section = &config["defender"];
+    assert_eq!(section["strategy"].as_str(), Some(best.as_str()));
+    let record = &section["selection"];
+    assert_eq!(record["chosen_by"].as_str(), Some("auto"));
+    assert_eq!(record["candidates"].as_integer(), Some(441));
+    assert_eq!(record["equal"].as_bool(), Some(false));
+    assert_eq!(record["safe_demos"].as_integer(), Some(3));
+    assert_eq!(record["false_alarm_rate"].as_float(), Some(fa));
+    assert_eq!(record["crash_prevention_rate"].as_float(), Some(cp));
+
+    // Resumed with the same command line: the choice is kept, nothing is selected again.
+    let mut resume: Vec<&str> = args.to_vec();
+    resume.push("--resume");
+    let out = ok(&resume);
+    let msg = text(&out);
+    assert!(!msg.contains("strategy auto: chose"), "the resumed run selected again:\n{msg}");
+    let config2: toml::Value =
+        toml::from_str(&std::fs::read_to_string(run.join("config.toml")).unwrap()).unwrap();
+    assert_eq!(config2["defender"], config["defender"]);
+
+    // summary.json: the strategy and the same record; the report reads the run.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], serde_json::Value::Bool(true));
+    assert_eq!(summary["strategy"].as_str(), Some(best.as_str()));
+    assert_eq!(summary["selection"]["chosen_by"].as_str(), Some("auto"));
+    assert_eq!(summary["selection"]["crash_prevention_rate"].as_f64(), Some(cp));
+    let run_loaded = defender_report::Run::load(&run).unwrap();
+    let selection = run_loaded.summary.selection.unwrap();
+    assert_eq!((selection.false_alarm_rate, selection.crash_prevention_rate), (fa, cp));
+
+    // A configuration file with strategy = "auto" works the same way.
+    let file = dir.path().join("auto.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "env = \"{ENV_ID}\"\nalgo = \"sac\"\ntotal_steps = 200\n\n[defender]\nstrategy = \"auto\"\nnum_demos = 3\n"
+        ),
+    )
+    .unwrap();
+    let run2 = dir.path().join("run2");
+    ok(&["train", "--config", s(&file), "--out", s(&run2)]);
+    let config3: toml::Value =
+        toml::from_str(&std::fs::read_to_string(run2.join("config.toml")).unwrap()).unwrap();
+    assert_eq!(config3["defender"]["strategy"].as_str(), Some(best.as_str()));
+    assert_eq!(config3["defender"]["selection"]["chosen_by"].as_str(), Some("auto"));
+}
