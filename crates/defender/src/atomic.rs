@@ -36,6 +36,27 @@ where
     }
 }
 
+/// Writes `path` atomically with a writer that wants a path of its own (e.g. safetensors): `write`
+/// fills `NAME.tmp`, which is then synced, renamed over `path`, and the directory synced. On
+/// error the temporary file is removed and `path` is untouched.
+///
+/// # Errors
+/// Whatever `write` returns, or an I/O error syncing or renaming the file.
+pub(crate) fn commit_file(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = tmp_path(path);
+    let result = write(&tmp).and_then(|()| {
+        let sync = |p: &Path| File::open(p).and_then(|f| f.sync_all()).map_err(|e| DefenderError::io(p, e));
+        sync(&tmp)?;
+        std::fs::rename(&tmp, path).map_err(|e| DefenderError::io(path, e))?;
+        let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        defender_io::sync_dir(parent).map_err(|e| DefenderError::io(parent, e))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 /// Writes a `Write` error as a [`DefenderError::Io`] on `path`.
 pub(crate) fn io_at(path: &Path) -> impl Fn(std::io::Error) -> DefenderError + '_ {
     move |e| DefenderError::io(path, e)

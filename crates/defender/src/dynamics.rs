@@ -22,7 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::atomic::{tmp_path, write_atomic};
+use crate::atomic::{commit_file, write_atomic};
 use crate::error::{DefenderError, Result};
 use crate::npz::{NpzReader, NpzWriter, Values};
 
@@ -485,11 +485,9 @@ impl DynamicsModel {
         let dir = dir.as_ref();
         std::fs::create_dir_all(dir).map_err(|e| DefenderError::io(dir, e))?;
         let net = dir.join("dynamics.safetensors");
-        self.net.save_safetensors(tmp_path(&net))?;
-        std::fs::rename(tmp_path(&net), &net).map_err(|e| DefenderError::io(&net, e))?;
+        commit_file(&net, |tmp| Ok(self.net.save_safetensors(tmp)?))?;
         let adam = dir.join("dynamics_adam.safetensors");
-        self.adam.save_safetensors(tmp_path(&adam))?;
-        std::fs::rename(tmp_path(&adam), &adam).map_err(|e| DefenderError::io(&adam, e))?;
+        commit_file(&adam, |tmp| Ok(self.adam.save_safetensors(tmp)?))?;
         let buffer = dir.join("dynamics_buffer.npz");
         let (o, a, n) = (self.obs_dim, self.act_dim, self.len);
         write_atomic(&buffer, |w| {
