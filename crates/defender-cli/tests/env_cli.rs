@@ -22,11 +22,36 @@ fn defender(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().unwrap()
 }
 
-fn read<T: npyz::Deserialize>(npz: &Path, name: &str) -> (Vec<T>, Vec<u64>) {
-    let mut archive = npyz::npz::NpzArchive::open(npz).unwrap();
-    let arr = archive.by_name(name).unwrap().unwrap_or_else(|| panic!("{}: no {name}", npz.display()));
-    let shape = arr.shape().to_vec();
-    (arr.into_vec().unwrap(), shape)
+/// An element type of an `.npz` array as `defender::npz` reads it.
+trait Element: Sized {
+    fn from_values(values: defender::npz::Values) -> Option<Vec<Self>>;
+}
+
+impl Element for f64 {
+    fn from_values(values: defender::npz::Values) -> Option<Vec<Self>> {
+        match values {
+            defender::npz::Values::F64(v) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+impl Element for bool {
+    fn from_values(values: defender::npz::Values) -> Option<Vec<Self>> {
+        match values {
+            defender::npz::Values::Bool(v) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+fn read<T: Element>(npz: &Path, name: &'static str) -> (Vec<T>, Vec<u64>) {
+    let (shape, values) = defender::npz::read_array(npz, name)
+        .unwrap()
+        .unwrap_or_else(|| panic!("{}: no {name}", npz.display()));
+    let values =
+        T::from_values(values).unwrap_or_else(|| panic!("{}: {name} has another dtype", npz.display()));
+    (values, shape.into_iter().map(|d| d as u64).collect())
 }
 
 #[test]

@@ -11,7 +11,7 @@ mod episode_set;
 mod error;
 mod filter;
 mod method;
-mod npz;
+pub mod npz;
 mod recorder;
 mod score;
 pub mod selection;

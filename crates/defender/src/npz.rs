@@ -1,5 +1,7 @@
 //! Reading and writing the arrays of a `.npz` archive (numpy's `np.savez` format: a zip of `.npy`
-//! files), with the dtype checks the episode-set format needs.
+//! files), with the dtype checks the episode-set format needs. The one `.npz` reader and writer of
+//! the project: [`read_array`] and [`write_arrays`] are its public face (e.g. `defender env
+//! replay` writes its rollout with them).
 
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, Write};
@@ -10,8 +12,8 @@ use npyz::{DType, NpyFile, NpyHeader, Order, TypeChar, WriterBuilder};
 use crate::error::{DefenderError, Result};
 
 /// The values of one array, in the dtype the file holds them.
-#[derive(Debug, Clone)]
-pub(crate) enum Values {
+#[derive(Debug, Clone, PartialEq)]
+pub enum Values {
     /// float32 or float64, widened to f64 only when the file holds float64.
     F32(Vec<f32>),
     /// float64.
@@ -146,7 +148,12 @@ impl NpzReader {
         let ts = match &dtype {
             DType::Plain(ts) => ts.clone(),
             _ => {
-                return Err(bad(&path, name, "a plain numeric or bool dtype (no records, no objects)", descr));
+                return Err(bad(
+                    &path,
+                    name,
+                    "a plain numeric or bool dtype (no records, no objects)",
+                    descr,
+                ));
             }
         };
         let item = ts.size_field();
@@ -266,6 +273,74 @@ fn read_values(npy: NpyFile<impl Read>, header: &Header, path: &Path, name: &'st
             Values::Int(collect(npy, n, |v: u64| i64::try_from(v).unwrap_or(i64::MAX)).map_err(err)?)
         }
         _ => return Err(bad(path, name, "float32, float64, an integer type, bool or uint8", &header.descr)),
+    })
+}
+
+/// Reads array `name` of the `.npz` archive at `path`: its shape and its values in C order, or
+/// `None` if the archive has no such array. The header is checked against the archive before any
+/// data is read, and the entry's checksum verified.
+///
+/// # Errors
+/// An unreadable file, archive or array, naming the file and the array.
+pub fn read_array(path: &Path, name: &'static str) -> Result<Option<(Vec<usize>, Values)>> {
+    Ok(NpzReader::open(path)?.read(name)?.map(|a| (a.shape, a.values)))
+}
+
+/// The values of one array to write, borrowed.
+#[derive(Debug, Clone, Copy)]
+pub enum Data<'a> {
+    /// float32 (`<f4`).
+    F32(&'a [f32]),
+    /// float64 (`<f8`).
+    F64(&'a [f64]),
+    /// int64 (`<i8`).
+    I64(&'a [i64]),
+    /// bool (`|b1`).
+    Bool(&'a [bool]),
+    /// uint8 (`|u1`).
+    U8(&'a [u8]),
+}
+
+impl Data<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Data::F32(v) => v.len(),
+            Data::F64(v) => v.len(),
+            Data::I64(v) => v.len(),
+            Data::Bool(v) => v.len(),
+            Data::U8(v) => v.len(),
+        }
+    }
+}
+
+/// Writes `arrays` (name, shape, values in C order) as the `.npz` archive `path`, which `np.load`
+/// reads; atomically ([`crate::write_atomic`]: a temporary file, fsync, rename, fsync of the
+/// directory), so that `path` is the old file or the new one, never a torn one.
+///
+/// # Errors
+/// A shape that does not hold its values (naming the array), or an I/O error naming the path.
+pub fn write_arrays(path: &Path, arrays: &[(&str, &[usize], Data<'_>)]) -> Result<()> {
+    for (name, shape, data) in arrays {
+        if shape.iter().try_fold(1usize, |a, &d| a.checked_mul(d)) != Some(data.len()) {
+            return Err(DefenderError::Format {
+                path: path.to_owned(),
+                what: format!("array '{name}': shape {shape:?} does not hold its {} values", data.len()),
+            });
+        }
+    }
+    crate::atomic::write_atomic(path, |w| {
+        let mut npz = NpzWriter::new(w, path);
+        for &(name, shape, data) in arrays {
+            match data {
+                Data::F32(v) => npz.write(name, shape, v)?,
+                Data::F64(v) => npz.write(name, shape, v)?,
+                Data::I64(v) => npz.write(name, shape, v)?,
+                Data::Bool(v) => npz.write(name, shape, v)?,
+                Data::U8(v) => npz.write(name, shape, v)?,
+            }
+        }
+        npz.finish()?;
+        Ok(())
     })
 }
 

@@ -1,14 +1,13 @@
 //! `defender env ...`: the MuJoCo tasks.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use defender_mujoco::{MujocoEnv, Rollout, registry, replay};
 use defender_rl::Env;
-use npyz::WriterBuilder;
 
 /// `defender env` subcommands.
 #[derive(Debug, Subcommand)]
@@ -157,45 +156,19 @@ fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Res
         .with_context(|| format!("{}: reading the data (expected {})", path.display(), expected()))
 }
 
-/// Writes obs/rew/terminated to `out` atomically: a temporary file in the same folder, then rename.
+/// Writes obs/rew/terminated to `out` atomically (the project's one `.npz` writer: a temporary
+/// file in the same folder, fsync'd, then renamed).
 fn write_rollout(out: &Path, rollout: &Rollout) -> anyhow::Result<()> {
-    let dir = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = out.file_name().with_context(|| "the output path has no file name")?;
-    let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
-    let result = write_npz(&tmp, rollout).and_then(|()| {
-        std::fs::rename(&tmp, out).with_context(|| format!("renaming {} to {}", tmp.display(), out.display()))
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-fn write_npz(path: &Path, rollout: &Rollout) -> anyhow::Result<()> {
-    let file = File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    let mut npz = npyz::npz::NpzWriter::new(BufWriter::new(file));
-    let steps = rollout.steps() as u64;
-    let mut obs = npz
-        .array::<f64>("obs", Default::default())?
-        .default_dtype()
-        .shape(&[steps + 1, rollout.obs_dim as u64])
-        .begin_nd()?;
-    obs.extend(rollout.obs.iter().copied())?;
-    obs.finish()?;
-    let mut rew = npz.array::<f64>("rew", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
-    rew.extend(rollout.rewards.iter().copied())?;
-    rew.finish()?;
-    let mut term =
-        npz.array::<bool>("terminated", Default::default())?.default_dtype().shape(&[steps]).begin_nd()?;
-    term.extend(rollout.terminated.iter().copied())?;
-    term.finish()?;
-    let mut writer = npz.zip_writer().finish()?;
-    writer.flush()?;
-    let file = writer.into_inner().map_err(|e| e.into_error())?;
-    file.sync_all()?;
+    use defender::npz::{Data, write_arrays};
+    let steps = rollout.steps();
+    write_arrays(
+        out,
+        &[
+            ("obs", &[steps + 1, rollout.obs_dim], Data::F64(&rollout.obs)),
+            ("rew", &[steps], Data::F64(&rollout.rewards)),
+            ("terminated", &[steps], Data::Bool(&rollout.terminated)),
+        ],
+    )?;
     Ok(())
 }
 
