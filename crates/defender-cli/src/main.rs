@@ -3,8 +3,11 @@
 
 mod commands;
 mod progress;
+mod resume;
 mod run_dir;
 mod setup;
+mod signals;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 
@@ -28,6 +31,10 @@ enum Command {
     Train(Box<commands::train::TrainArgs>),
     /// Rank filtering strategies offline by replaying recorded episodes (SPEC section 7).
     Ablate(commands::ablate::AblateArgs),
+    /// Choose the strategy for a task from its demonstrations (leave-one-out), before training.
+    Select(commands::select::SelectArgs),
+    /// Run an experiment file's grid of runs on this machine, N at a time (resumable).
+    Sweep(commands::sweep::SweepArgs),
     /// The paper's tables (Markdown, LaTeX, CSV) and learning-curve plots from run directories.
     Report(commands::report::ReportArgs),
     /// Measure the project's performance figures on this machine and print them against targets.
@@ -39,13 +46,19 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
         Command::Report(args) => commands::report::run(args),
+        Command::Sweep(args) => commands::sweep::run(args),
         Command::Bench(args) => commands::bench::run(args),
         Command::Train(args) => commands::train::run(*args),
         Command::Demos(cmd) => commands::demos::run(cmd),
         Command::Ablate(args) => commands::ablate::run(args),
+        Command::Select(args) => commands::select::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // A run stopped by a signal has said so; it exits as the signal's convention says.
+        Err(err) if err.downcast_ref::<signals::Stopped>().is_some() => {
+            std::process::ExitCode::from(err.downcast_ref::<signals::Stopped>().map_or(1, |s| s.code))
+        }
         Err(err) => {
             eprintln!("error: {}", describe(&err));
             std::process::ExitCode::FAILURE

@@ -93,3 +93,41 @@ impl RunDir {
         Ok(write_atomic(self.root.join(SUMMARY_FILE), &text)?)
     }
 }
+
+/// Takes the run directory `out` for this process: creates it if needed, refuses a directory
+/// that holds something else than a run (it would be overwritten), and locks it exclusively, so
+/// that two processes never write one run. The lock lasts as long as the returned guard.
+pub fn claim(out: &Path) -> Result<defender_io::DirLock> {
+    if out.exists() {
+        if !out.is_dir() {
+            anyhow::bail!("--out {}: exists and is not a directory", out.display());
+        }
+        let is_run = out.join(CONFIG_FILE).exists();
+        let foreign: Vec<String> = std::fs::read_dir(out)
+            .with_context(|| format!("cannot read {}", out.display()))?
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|name| name != defender_io::DirLock::FILE_NAME)
+            .collect();
+        if !is_run && !foreign.is_empty() {
+            anyhow::bail!(
+                "--out {} is not a run directory (no {CONFIG_FILE}) and is not empty ({}{}); \
+                 refusing to write into it: give a new or empty directory",
+                out.display(),
+                foreign.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
+                if foreign.len() > 3 { ", ..." } else { "" }
+            );
+        }
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create run directory {}", out.display()))?;
+    Ok(defender_io::DirLock::try_acquire(out)?)
+}
+
+/// Checks, before any work, that a file can be written at `path` (its folder exists and is
+/// writable), so that a long run does not lose its result at the very end.
+pub fn check_writable(path: &Path) -> Result<()> {
+    let probe = defender_io::tmp_sibling(path, ".probe");
+    std::fs::File::create(&probe).with_context(|| format!("cannot write {} (checked before starting)", path.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}

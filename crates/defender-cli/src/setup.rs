@@ -14,8 +14,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DefenderSection {
-    /// `SAFE/UNSAFE` (SPEC section 3).
-    pub strategy: defender::Strategy,
+    /// `SAFE/UNSAFE` (SPEC section 3), or `auto` in a configuration given to `defender train`
+    /// (chosen before training; `config.toml` then holds the choice and `selection`).
+    pub strategy: defender::selection::StrategyChoice,
     /// `state` or `state-action`.
     #[serde(default)]
     pub mode: defender::Mode,
@@ -28,32 +29,41 @@ pub struct DefenderSection {
     /// The demonstration set; `None`: the one shipped for the task.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub demos: Option<PathBuf>,
+    /// SHA-256 of the demonstration file's bytes, pinned when the run starts: a resumed run (or a
+    /// configuration given with it) refuses a file whose content differs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demos_sha256: Option<String>,
     /// Options of the alignment cost (SPEC section 2; off by default).
     #[serde(default)]
     pub cost: defender::CostOptions,
     /// The dynamics model (SPEC section 5).
     #[serde(default)]
     pub dynamics: defender::DynamicsConfig,
+    /// How `strategy = "auto"` chose the strategy (`[defender.selection]`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<defender_report::StrategySelection>,
 }
 
 impl DefenderSection {
     /// A section with defaults for `strategy`.
-    pub fn new(strategy: defender::Strategy) -> Self {
+    pub fn new(strategy: defender::selection::StrategyChoice) -> Self {
         Self {
             strategy,
             mode: defender::Mode::default(),
             r_task: None,
             num_demos: None,
             demos: None,
+            demos_sha256: None,
             cost: Default::default(),
             dynamics: Default::default(),
+            selection: None,
         }
     }
 
     /// The method crate's configuration.
     pub fn to_config(&self) -> Result<DefenderConfig> {
         Ok(DefenderConfig {
-            strategy: self.strategy,
+            strategy: self.strategy.fixed().context("strategy \"auto\" is chosen before the run is built")?,
             mode: self.mode,
             num_demos: self.num_demos,
             r_task: self.r_task,
@@ -65,7 +75,12 @@ impl DefenderSection {
     /// Applies the `defender train` flags that configure DEFENDER.
     pub fn apply_flags(&mut self, args: &crate::commands::train::TrainArgs) -> Result<()> {
         if let Some(s) = &args.strategy {
-            self.strategy = s.parse().context("--strategy")?;
+            let choice: defender::selection::StrategyChoice = s.parse().context("--strategy")?;
+            // `auto` over a strategy already chosen automatically (a resumed run) keeps the choice.
+            if !(choice == defender::selection::StrategyChoice::Auto && self.selection.is_some()) {
+                self.strategy = choice;
+                self.selection = None;
+            }
         }
         if let Some(m) = &args.mode {
             self.mode = m.parse().context("--mode")?;
@@ -131,16 +146,42 @@ pub fn build(
             path.display()
         );
     }
+    let sha256 = file_sha256(&path)?;
+    if let Some(pinned) = &section.demos_sha256
+        && *pinned != sha256
+    {
+        bail!(
+            "{}: the demonstrations changed since the run was configured (SHA-256 {sha256}, the \
+             configuration pins {pinned}); restore the file, or start a new run",
+            path.display()
+        );
+    }
     let demos = EpisodeSet::load(&path)?;
+    if section.strategy == defender::selection::StrategyChoice::Auto {
+        let (strategy, record) =
+            crate::commands::select::choose_for_run(&demos, section.mode, section.num_demos, section.cost)?;
+        section.strategy = strategy.into();
+        section.selection = Some(record);
+    }
     let config = section.to_config()?;
     let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Wrapper, 0));
     let wrapped = DefenderEnv::new(task, &demos, config, &mut rng)?;
     section.r_task = Some(wrapped.r_task());
     section.demos = Some(path);
+    section.demos_sha256 = Some(sha256);
     if section.num_demos.is_none() {
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
     Ok(Built { agent, env: Box::new(wrapped), eval_env })
+}
+
+/// The SHA-256 of a file's bytes, as lower-case hex.
+pub fn file_sha256(path: &Path) -> Result<String> {
+    use sha2::Digest;
+    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut hasher = sha2::Sha256::new();
+    std::io::copy(&mut file, &mut hasher).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect())
 }
 
 /// Records the training episodes as an episode set (`--record-episodes`), through the

@@ -5,4 +5,6 @@ pub mod bench;
 pub mod demos;
 pub mod env;
 pub mod report;
+pub mod select;
+pub mod sweep;
 pub mod train;

@@ -1,8 +1,6 @@
 //! `defender train`: SAC or TD3 on a MuJoCo task, bare or with DEFENDER, into a run directory.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -14,7 +12,9 @@ use defender_rl::{
 use serde::{Deserialize, Serialize};
 
 use crate::progress;
-use crate::run_dir::RunDir;
+use crate::resume;
+use crate::run_dir::{self, RunDir};
+use crate::signals::{StopRequest, Stopped};
 use crate::setup::{self, DefenderSection, TrainingRecorder};
 
 /// Arguments of `defender train`.
@@ -27,7 +27,10 @@ use crate::setup::{self, DefenderSection, TrainingRecorder};
 
 Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
 The run directory gets config.toml, metrics.csv, eval.csv, summary.json and checkpoint/
-(docs/run-directory.md). Ctrl-C stops at the end of the current episode with a checkpoint.")]
+(docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
+a checkpoint (exit code 130/143/129); a checkpoint is also written every 2 minutes, so --resume
+continues even after a kill -9. A resumed run keeps its configuration: only --steps/--episodes
+may extend its budget.")]
 pub struct TrainArgs {
     /// Gymnasium id of the task (see `defender env list`).
     #[arg(long)]
@@ -35,7 +38,8 @@ pub struct TrainArgs {
     /// The RL algorithm: sac or td3 [default: sac].
     #[arg(long, value_parser = parse_algo)]
     pub algo: Option<Algo>,
-    /// A DEFENDER strategy SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10); none trains the bare algorithm.
+    /// A DEFENDER strategy SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10), or `auto` to choose one from
+    /// the demonstrations first (`defender select`); none trains the bare algorithm.
     #[arg(long)]
     pub strategy: Option<String>,
     /// Demonstration set (.npz, SPEC section 8); default: the one shipped for the task.
@@ -67,9 +71,13 @@ pub struct TrainArgs {
     /// Evaluate the deterministic policy every N steps (0: only at the end).
     #[arg(long)]
     pub eval_freq: Option<u64>,
-    /// Checkpoint every N training episodes (0: only at the end and on Ctrl-C).
+    /// Checkpoint every N training episodes (0: only by time, at the end and on a stop signal).
     #[arg(long)]
     pub checkpoint_every: Option<u64>,
+    /// Checkpoint at the first episode end N wall-clock seconds after the last one [default: 120;
+    /// 0: never by time].
+    #[arg(long)]
+    pub checkpoint_seconds: Option<u64>,
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -111,9 +119,13 @@ pub struct RunConfig {
     /// Episodes per periodic evaluation.
     #[serde(default = "five")]
     pub eval_episodes: usize,
-    /// Checkpoint every this many episodes (0: at the end and on stop).
+    /// Checkpoint every this many episodes (0: only by time, at the end and on stop).
     #[serde(default)]
     pub checkpoint_every_episodes: u64,
+    /// Checkpoint at the first episode end this many wall-clock seconds after the last
+    /// checkpoint (0: never by time), so that a kill -9 loses at most about that much work.
+    #[serde(default = "default_checkpoint_seconds")]
+    pub checkpoint_every_seconds: u64,
     /// Where the training episodes are saved as an episode set, if anywhere.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub record_episodes: Option<PathBuf>,
@@ -130,6 +142,12 @@ pub struct RunConfig {
 
 fn five() -> usize {
     5
+}
+
+/// Checkpoints every 2 minutes by default: a checkpoint of a 100k-step run takes well under a
+/// second, and a scheduler's kill -9 then loses at most about 2 minutes of training.
+fn default_checkpoint_seconds() -> u64 {
+    120
 }
 
 impl RunConfig {
@@ -149,9 +167,14 @@ pub fn read_config(path: &Path) -> Result<RunConfig> {
     toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
 }
 
+/// Parses a run configuration from TOML text, refusing unknown keys.
+pub fn read_config_str(text: &str) -> Result<RunConfig> {
+    Ok(toml::from_str(text)?)
+}
+
 /// Resolves flags over an optional configuration file.
 fn resolve(args: &TrainArgs) -> Result<RunConfig> {
-    let mut config = match &args.config {
+    let config = match &args.config {
         Some(path) => read_config(path)?,
         None => RunConfig {
             env: args
@@ -165,12 +188,18 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             eval_freq: 0,
             eval_episodes: five(),
             checkpoint_every_episodes: 0,
+            checkpoint_every_seconds: default_checkpoint_seconds(),
             record_episodes: None,
             defender: None,
             sac: None,
             td3: None,
         },
     };
+    apply_flags(config, args)
+}
+
+/// Applies the command's flags over `config`.
+fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     if let Some(env) = &args.env {
         config.env.clone_from(env);
     }
@@ -191,6 +220,9 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     }
     if let Some(c) = args.checkpoint_every {
         config.checkpoint_every_episodes = c;
+    }
+    if let Some(c) = args.checkpoint_seconds {
+        config.checkpoint_every_seconds = c;
     }
     if args.record_episodes.is_some() {
         config.record_episodes.clone_from(&args.record_episodes);
@@ -236,22 +268,29 @@ impl RunConfig {
 
 /// Runs `defender train`.
 pub fn run(args: TrainArgs) -> Result<()> {
-    let config = if args.resume {
-        let path = args.out.join("config.toml");
-        let mut config = read_config(&path).with_context(|| format!("--resume needs {}", path.display()))?;
-        // A resumed run may only be given a larger budget; everything else is the saved run's.
-        if let Some(steps) = args.steps {
-            config.total_steps = steps;
-        }
-        if let Some(episodes) = args.episodes {
-            config.total_episodes = episodes;
-        }
-        config
+    let stop = StopRequest::install()?;
+    let _lock = run_dir::claim(&args.out)?;
+    let checkpoint_dir = args.out.join("checkpoint");
+    let has_checkpoint = defender_io::resolve_dir(&checkpoint_dir).is_some();
+    let mut config = if args.resume {
+        resumed_config(&args)?
     } else {
+        if has_checkpoint || args.out.join("summary.json").exists() {
+            bail!("{} already holds a run; use --resume to continue it, or another --out", args.out.display());
+        }
         resolve(&args)?
     };
-    let mut config = config;
+    let resuming = args.resume && has_checkpoint;
+    if args.resume && !has_checkpoint {
+        eprintln!(
+            "{}: no checkpoint yet (stopped before its first one); starting the run again from its config.toml",
+            args.out.display()
+        );
+    }
     let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_mut())?;
+    if let Some(path) = &config.record_episodes {
+        run_dir::check_writable(path).context("--record-episodes")?;
+    }
     let recorder = match &config.record_episodes {
         Some(_) => Some(TrainingRecorder::new(
             &config.env,
@@ -266,27 +305,16 @@ pub fn run(args: TrainArgs) -> Result<()> {
     trainer_config.eval_freq = config.eval_freq;
     trainer_config.eval_episodes = config.eval_episodes;
     trainer_config.checkpoint_every_episodes = config.checkpoint_every_episodes;
+    trainer_config.checkpoint_every_seconds = config.checkpoint_every_seconds;
 
-    let checkpoint_dir = args.out.join("checkpoint");
-    if !args.resume && (checkpoint_dir.exists() || args.out.join("summary.json").exists()) {
-        bail!("{} already holds a run; use --resume to continue it, or another --out", args.out.display());
-    }
     let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
         .with_checkpoint_dir(&checkpoint_dir);
-
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = Arc::clone(&stop);
-        // A second Ctrl-C while the checkpoint is written kills the process as usual.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-        });
-    }
-    let mut hooks = TrainHooks::new(&args.out, &config, budget, Arc::clone(&stop), recorder)?;
-    if args.resume {
+    let mut hooks = TrainHooks::new(&args.out, &config, budget, stop.clone(), recorder)?;
+    if resuming {
         trainer.resume(&checkpoint_dir, &mut hooks)?;
+        if trainer.config().budget != budget {
+            trainer.set_budget(budget).context("--resume")?;
+        }
         hooks.restart(trainer.episodes(), trainer.evaluations(), trainer.total_steps())?;
     }
     hooks.run_dir.write_config(&config)?;
@@ -308,7 +336,27 @@ pub fn run(args: TrainArgs) -> Result<()> {
         }
     }
     print_summary(&args.out, &summary, matches!(end, RunEnd::Stopped));
-    Ok(())
+    match (&end, stop.exit_code()) {
+        (RunEnd::Stopped, Some(code)) => Err(Stopped { code }.into()),
+        _ => Ok(()),
+    }
+}
+
+/// The configuration of a run continued with `--resume`: its `config.toml`, with a larger
+/// budget if one is given; any other flag that would change it is refused.
+fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
+    let path = args.out.join("config.toml");
+    let saved = read_config(&path).with_context(|| format!("--resume needs {}", path.display()))?;
+    let base = match &args.config {
+        Some(file) => read_config(file)?,
+        None => saved.clone(),
+    };
+    let requested = apply_flags(base, args)?;
+    resume::refuse_changes(&args.out, &saved, &requested)?;
+    let mut config = saved;
+    config.total_steps = requested.total_steps;
+    config.total_episodes = requested.total_episodes;
+    Ok(config)
 }
 
 fn print_summary(out: &Path, s: &Summary, stopped: bool) {
@@ -339,7 +387,7 @@ struct TrainHooks {
     config: RunConfig,
     bar: indicatif::ProgressBar,
     by_steps: bool,
-    stop: Arc<AtomicBool>,
+    stop: StopRequest,
     crashed: u64,
     filtered: u64,
     episodes: u64,
@@ -352,7 +400,7 @@ impl TrainHooks {
         out: &Path,
         config: &RunConfig,
         budget: Budget,
-        stop: Arc<AtomicBool>,
+        stop: StopRequest,
         recorder: Option<TrainingRecorder>,
     ) -> Result<Self> {
         let (total, unit, by_steps) = match budget {
@@ -414,6 +462,7 @@ impl TrainHooks {
             wall_seconds: trainer.wall_seconds(),
             steps_per_second: 0.0,
             complete: final_eval.is_some(),
+            selection: defender.and_then(|d| d.selection.clone()),
         };
         summary.count(trainer.episodes().iter().map(|r| match r.outcome() {
             Outcome::Crashed => defender_report::Outcome::Crashed,
@@ -468,6 +517,9 @@ impl Hooks for TrainHooks {
     }
 
     fn on_checkpoint(&mut self, dir: &Path) -> Result<(), HookError> {
+        let pinned = toml::to_string_pretty(&self.config).map_err(anyhow::Error::from)?;
+        defender_io::write_bytes(&dir.join(resume::PINNED_CONFIG_FILE), pinned.as_bytes())
+            .map_err(|(path, e)| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
         if let Some(recorder) = &self.recorder {
             recorder.save_checkpoint(dir)?;
         }
@@ -475,6 +527,7 @@ impl Hooks for TrainHooks {
     }
 
     fn on_resume(&mut self, dir: &Path) -> Result<(), HookError> {
+        resume::check_pinned(dir, &self.config)?;
         if let Some(recorder) = &mut self.recorder {
             recorder.load_checkpoint(dir)?;
         }
@@ -482,6 +535,6 @@ impl Hooks for TrainHooks {
     }
 
     fn should_stop(&mut self) -> bool {
-        self.stop.load(Ordering::SeqCst)
+        self.stop.is_requested()
     }
 }

@@ -1,0 +1,100 @@
+//! `defender sweep`: run an experiment file's grid on this machine.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+
+use crate::signals::{StopRequest, Stopped};
+use crate::sweep::experiment;
+use crate::sweep::runner::{self, state_of};
+
+/// Arguments of `defender sweep`.
+#[derive(Debug, Args)]
+#[command(after_help = "Examples:
+  defender sweep experiments/table1.toml --out results/table1 --jobs 2
+  defender sweep experiments/table1.toml --out results/table1 --list      (the runs and where they stand)
+  defender report results/table1 --plots results/table1/plots             (the tables, over seeds)
+
+Every run is an ordinary run directory, <out>/<task>/<algo>-<strategy>-s<seed>. Started again,
+the sweep skips complete runs and resumes stopped ones from their checkpoint. Ctrl-C or SIGTERM
+stops every run at its next episode end with a checkpoint (exit code 130/143); nothing is lost.
+Each run uses one core (one network thread): --jobs N runs N at a time [default: the cores].
+The experiment format is in docs/experiments.md.")]
+pub struct SweepArgs {
+    /// The experiment file (TOML grid; see experiments/).
+    pub experiment: PathBuf,
+    /// The sweep directory (one run directory per grid point).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Runs at a time [default: the number of cores].
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// List the runs and their state (complete, stopped, new) without running anything.
+    #[arg(long)]
+    pub list: bool,
+    /// With --list: one JSON object per run (name, dir, state, config), for other schedulers.
+    #[arg(long, requires = "list")]
+    pub json: bool,
+}
+
+/// Runs `defender sweep`.
+pub fn run(args: SweepArgs) -> Result<()> {
+    let experiment = experiment::load(&args.experiment)?;
+    if args.list {
+        for run in &experiment.runs {
+            let dir = args.out.join(&run.name);
+            let state = state_of(&dir);
+            if args.json {
+                let line = serde_json::json!({
+                    "name": run.name,
+                    "dir": dir,
+                    "state": state.as_str(),
+                    "config": toml::to_string(&run.config)?,
+                });
+                println!("{line}");
+            } else {
+                println!("{:8} {}", state.as_str(), run.name);
+            }
+        }
+        return Ok(());
+    }
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    if jobs == 0 {
+        bail!("--jobs must be at least 1");
+    }
+    let stop = StopRequest::install()?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let _lock = defender_io::DirLock::try_acquire(&args.out)?;
+    if !experiment.description.is_empty() {
+        eprintln!("{}", experiment.description);
+    }
+    if let Some(paper) = &experiment.paper {
+        let per_run = match (paper.episodes, paper.steps) {
+            (Some(e), _) => format!("{e} episodes"),
+            (None, Some(s)) => format!("{s} steps"),
+            (None, None) => "unstated".to_string(),
+        };
+        eprintln!(
+            "the paper's budget: {per_run} per run, {} seeds; this file's budget is in config.toml of each run",
+            paper.seeds.map_or("?".to_string(), |s| s.to_string())
+        );
+    }
+    let end = runner::run_all(&args.out, &experiment.runs, jobs, &stop)?;
+    eprintln!(
+        "sweep: {} completed now, {} were complete, {} failed{}; tables: defender report {}",
+        end.completed,
+        end.skipped,
+        end.failed.len(),
+        if end.stopped { ", stopped (start it again to continue)" } else { "" },
+        args.out.display()
+    );
+    if let (true, Some(code)) = (end.stopped, stop.exit_code()) {
+        return Err(Stopped { code }.into());
+    }
+    if !end.failed.is_empty() {
+        let names: Vec<&str> = end.failed.iter().map(|(n, _)| n.as_str()).collect();
+        bail!("{} run(s) failed: {} (their logs are in {}/.sweep/logs)", names.len(), names.join(", "), args.out.display());
+    }
+    Ok(())
+}

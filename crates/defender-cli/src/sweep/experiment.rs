@@ -1,0 +1,361 @@
+//! Experiment files: a declarative grid (tasks x algorithms x strategies x modes x numbers of
+//! demonstrations x seeds) with one budget and shared settings, expanded to named runs. Every run
+//! is an ordinary run configuration (`config.toml`), so a sweep is many ordinary runs.
+//!
+//! ```toml
+//! description = "Table 1 (state)"
+//! [paper]                      # the paper's protocol, recorded for the reader (not run)
+//! episodes = 5000
+//! seeds = 3
+//! [grid]
+//! envs = ["InvertedDoublePendulum-v5", "Hopper-v5"]
+//! algos = ["sac"]
+//! strategies = ["none", "MeanDemoW5/MeanDemoW10"]   # "none": the bare algorithm; "auto": chosen
+//! modes = ["state"]
+//! num_demos = [50]             # optional: all of the file
+//! seeds = [0, 1, 2]
+//! [budget]
+//! steps = 100000               # or episodes = N
+//! per_env = { "InvertedDoublePendulum-v5" = { steps = 30000, eval_freq = 2500 } }
+//! [run]                        # any key of a run's config.toml, for every run
+//! eval_freq = 5000
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use defender::selection::StrategyChoice;
+use defender_rl::Algo;
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::commands::train::{RunConfig, read_config_str};
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExperimentFile {
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    paper: Option<PaperBudget>,
+    grid: Grid,
+    budget: BudgetSpec,
+    #[serde(default)]
+    run: Option<toml::Table>,
+}
+
+/// The paper's own budget for this experiment, recorded beside the one this file runs.
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PaperBudget {
+    /// Training episodes per run in the paper.
+    #[serde(default)]
+    pub episodes: Option<u64>,
+    /// Training steps per run in the paper.
+    #[serde(default)]
+    pub steps: Option<u64>,
+    /// Seeds per configuration in the paper.
+    #[serde(default)]
+    pub seeds: Option<u64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Grid {
+    envs: Vec<Spanned<String>>,
+    #[serde(default = "default_algos")]
+    algos: Vec<Spanned<String>>,
+    #[serde(default = "default_strategies")]
+    strategies: Vec<Spanned<String>>,
+    #[serde(default = "default_modes")]
+    modes: Vec<Spanned<String>>,
+    #[serde(default)]
+    num_demos: Vec<usize>,
+    seeds: Vec<u64>,
+}
+
+fn spanned_list(items: &[&str]) -> Vec<Spanned<String>> {
+    items.iter().map(|s| Spanned::new(0..0, (*s).to_string())).collect()
+}
+
+fn default_algos() -> Vec<Spanned<String>> {
+    spanned_list(&["sac"])
+}
+
+fn default_strategies() -> Vec<Spanned<String>> {
+    spanned_list(&["none"])
+}
+
+fn default_modes() -> Vec<Spanned<String>> {
+    spanned_list(&["state"])
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Budget {
+    #[serde(default)]
+    steps: Option<u64>,
+    #[serde(default)]
+    episodes: Option<u64>,
+    /// Evaluate every this many steps for this task (over `[run] eval_freq`).
+    #[serde(default)]
+    eval_freq: Option<u64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BudgetSpec {
+    #[serde(default)]
+    steps: Option<u64>,
+    #[serde(default)]
+    episodes: Option<u64>,
+    #[serde(default)]
+    per_env: BTreeMap<String, Budget>,
+}
+
+/// One run of an experiment: its name (a relative path, `<env>/<algo>-<strategy>-s<seed>`) and
+/// its complete configuration.
+#[derive(Debug, Clone)]
+pub struct PlannedRun {
+    /// The run directory relative to the sweep directory.
+    pub name: String,
+    /// The run's configuration, as `defender train --config` reads it.
+    pub config: RunConfig,
+}
+
+/// An expanded experiment.
+#[derive(Debug)]
+pub struct Experiment {
+    /// What it reproduces.
+    pub description: String,
+    /// The paper's budget, if recorded.
+    pub paper: Option<PaperBudget>,
+    /// The runs, in a stable order (task, algorithm, strategy, mode, demos, seed).
+    pub runs: Vec<PlannedRun>,
+}
+
+/// The 1-based line of a byte offset in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+}
+
+/// A file name part for a strategy: `MeanDemoW5/MeanDemoW10` -> `MeanDemoW5-MeanDemoW10`.
+pub fn strategy_slug(strategy: &str) -> String {
+    if strategy == "none" { "bare".to_string() } else { strategy.replace('/', "-") }
+}
+
+/// Reads and expands an experiment file; every error names the file and, where it can, the line.
+pub fn load(path: &Path) -> Result<Experiment> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse(&text).with_context(|| format!("{}: not a valid experiment", path.display()))
+}
+
+/// Parses and expands an experiment from its text.
+pub fn parse(text: &str) -> Result<Experiment> {
+    let file: ExperimentFile = toml::from_str(text)?;
+    let at = |s: &Spanned<String>| {
+        if s.span().is_empty() { "the default".to_string() } else { format!("line {}", line_of(text, s.span().start)) }
+    };
+    let g = &file.grid;
+    for (name, empty) in [
+        ("grid.envs", g.envs.is_empty()),
+        ("grid.algos", g.algos.is_empty()),
+        ("grid.strategies", g.strategies.is_empty()),
+        ("grid.modes", g.modes.is_empty()),
+        ("grid.seeds", g.seeds.is_empty()),
+    ] {
+        if empty {
+            bail!("{name} is empty: the grid would have no runs");
+        }
+    }
+    let known: Vec<&str> = defender_mujoco::TASKS.iter().map(|t| t.id).collect();
+    for env in &g.envs {
+        if !known.contains(&env.get_ref().as_str()) {
+            bail!("{}: unknown task '{}' in grid.envs (known: {})", at(env), env.get_ref(), known.join(", "));
+        }
+    }
+    let mut algos = Vec::new();
+    for a in &g.algos {
+        let algo: Algo =
+            a.get_ref().parse().map_err(|_| anyhow::anyhow!("{}: unknown algorithm '{}' (sac or td3)", at(a), a.get_ref()))?;
+        algos.push(algo);
+    }
+    let mut strategies: Vec<Option<StrategyChoice>> = Vec::new();
+    for s in &g.strategies {
+        strategies.push(match s.get_ref().as_str() {
+            "none" => None,
+            other => Some(other.parse().with_context(|| format!("{}: grid.strategies", at(s)))?),
+        });
+    }
+    let mut modes: Vec<defender::Mode> = Vec::new();
+    for m in &g.modes {
+        modes.push(m.get_ref().parse().with_context(|| format!("{}: grid.modes", at(m)))?);
+    }
+    let budget_of = |env: &str| -> Result<(u64, u64)> {
+        let own = file.budget.per_env.get(env).copied().filter(|b| b.steps.is_some() || b.episodes.is_some());
+        let b = own.unwrap_or(Budget { steps: file.budget.steps, episodes: file.budget.episodes, eval_freq: None });
+        match (b.steps, b.episodes) {
+            (Some(s), None) if s > 0 => Ok((s, 0)),
+            (None, Some(e)) if e > 0 => Ok((0, e)),
+            (None, None) => bail!("budget: give steps = N or episodes = N (for {env})"),
+            _ => bail!("budget for {env}: give a positive number of steps or of episodes, not both"),
+        }
+    };
+    for env in file.budget.per_env.keys() {
+        if !g.envs.iter().any(|e| e.get_ref() == env) {
+            bail!("budget.per_env names '{env}', which is not in grid.envs");
+        }
+    }
+    let num_demos: Vec<Option<usize>> =
+        if g.num_demos.is_empty() { vec![None] } else { g.num_demos.iter().map(|&n| Some(n)).collect() };
+    let mut runs: Vec<PlannedRun> = Vec::new();
+    let mut seen: BTreeMap<String, String> = BTreeMap::new();
+    for env in &g.envs {
+        let env = env.get_ref();
+        let (total_steps, total_episodes) = budget_of(env)?;
+        for &algo in &algos {
+            for (strategy, spanned) in strategies.iter().zip(&g.strategies) {
+                // A bare run has no mode or demonstrations: one per seed, whatever those lists hold.
+                let variants: Vec<(Option<defender::Mode>, Option<usize>)> = match strategy {
+                    None => vec![(None, None)],
+                    Some(_) => modes.iter().flat_map(|&m| num_demos.iter().map(move |&n| (Some(m), n))).collect(),
+                };
+                for (mode, n) in variants {
+                    for &seed in &g.seeds {
+                        let mut name = format!("{env}/{}-{}", algo.as_str(), strategy_slug(spanned.get_ref()));
+                        if mode == Some(defender::Mode::StateAction) {
+                            name.push_str("-sa");
+                        }
+                        if let Some(n) = n {
+                            name.push_str(&format!("-n{n}"));
+                        }
+                        name.push_str(&format!("-s{seed}"));
+                        if let Some(first) = seen.insert(name.clone(), at(spanned)) {
+                            bail!(
+                                "{}: run '{name}' appears twice in the grid (first at {first}); remove the repeated entry",
+                                at(spanned)
+                            );
+                        }
+                        let mut config =
+                            run_config(&file.run, env, algo, *strategy, mode, n, seed, (total_steps, total_episodes))
+                                .with_context(|| format!("run '{name}'"))?;
+                        if let Some(f) = file.budget.per_env.get(env).and_then(|b| b.eval_freq) {
+                            config.eval_freq = f;
+                        }
+                        runs.push(PlannedRun { name, config });
+                    }
+                }
+            }
+        }
+    }
+    Ok(Experiment { description: file.description, paper: file.paper, runs })
+}
+
+/// The run configuration of one grid point: the shared `[run]` settings, then the grid's values.
+#[allow(clippy::too_many_arguments)]
+fn run_config(
+    shared: &Option<toml::Table>,
+    env: &str,
+    algo: Algo,
+    strategy: Option<StrategyChoice>,
+    mode: Option<defender::Mode>,
+    num_demos: Option<usize>,
+    seed: u64,
+    (total_steps, total_episodes): (u64, u64),
+) -> Result<RunConfig> {
+    let mut table = shared.clone().unwrap_or_default();
+    for key in ["env", "algo", "seed", "total_steps", "total_episodes"] {
+        if table.contains_key(key) {
+            bail!("[run] may not set '{key}': the grid and the budget set it");
+        }
+    }
+    table.insert("env".into(), env.into());
+    table.insert("algo".into(), algo.as_str().into());
+    table.insert("seed".into(), toml::Value::Integer(i64::try_from(seed).context("seed too large")?));
+    table.insert("total_steps".into(), toml::Value::Integer(i64::try_from(total_steps)?));
+    table.insert("total_episodes".into(), toml::Value::Integer(i64::try_from(total_episodes)?));
+    match strategy {
+        None => {
+            if table.contains_key("defender") {
+                // Shared DEFENDER settings do not apply to the bare runs.
+                table.remove("defender");
+            }
+        }
+        Some(strategy) => {
+            let section = table
+                .entry("defender")
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .context("[run.defender] must be a table")?;
+            section.insert("strategy".into(), strategy.to_string().into());
+            if let Some(mode) = mode {
+                section.insert("mode".into(), mode.to_string().into());
+            }
+            if let Some(n) = num_demos {
+                section.insert("num_demos".into(), toml::Value::Integer(i64::try_from(n)?));
+            }
+        }
+    }
+    let text = toml::to_string(&table)?;
+    read_config_str(&text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GRID: &str = r#"
+description = "test"
+[grid]
+envs = ["InvertedDoublePendulum-v5", "Hopper-v5"]
+strategies = ["none", "MeanDemoW5/MeanDemoW10"]
+modes = ["state", "state-action"]
+seeds = [0, 1]
+[budget]
+steps = 1000
+per_env = { "Hopper-v5" = { episodes = 20 } }
+[run]
+eval_freq = 500
+[run.sac]
+learning_starts = 50
+"#;
+
+    #[test]
+    fn expands_to_named_runs_with_their_overrides() {
+        let e = parse(GRID).unwrap();
+        let names: Vec<&str> = e.runs.iter().map(|r| r.name.as_str()).collect();
+        // Per task: 2 bare + 2 modes x 2 seeds DEFENDER.
+        assert_eq!(names.len(), 12, "{names:?}");
+        assert_eq!(names[0], "InvertedDoublePendulum-v5/sac-bare-s0");
+        assert!(names.contains(&"Hopper-v5/sac-MeanDemoW5-MeanDemoW10-sa-s1"), "{names:?}");
+        let hopper = e.runs.iter().find(|r| r.name == "Hopper-v5/sac-MeanDemoW5-MeanDemoW10-s1").unwrap();
+        assert_eq!((hopper.config.seed, hopper.config.total_steps, hopper.config.total_episodes), (1, 0, 20));
+        assert_eq!(hopper.config.eval_freq, 500);
+        assert_eq!(hopper.config.sac.as_ref().unwrap().learning_starts, 50);
+        let d = hopper.config.defender.as_ref().unwrap();
+        assert_eq!(d.strategy.to_string(), "MeanDemoW5/MeanDemoW10");
+        assert_eq!(d.mode, defender::Mode::State);
+        let idp = &e.runs[0].config;
+        assert_eq!((idp.total_steps, idp.defender.is_none()), (1000, true));
+    }
+
+    fn refused(text: &str, expect: &[&str]) {
+        let err = format!("{:#}", parse(text).unwrap_err());
+        for e in expect {
+            assert!(err.contains(e), "'{e}' not in: {err}");
+        }
+    }
+
+    #[test]
+    fn bad_files_are_refused_with_the_line_to_fix() {
+        refused(&GRID.replace("[run]\n", "[run]\nlearning_rate = 1\n"), &["learning_rate"]);
+        refused(&GRID.replace("description", "descripton"), &["descripton", "line 2"]);
+        refused(&GRID.replace("MeanDemoW5/MeanDemoW10", "MeanDemoW5/Bogus"), &["line 5", "Bogus"]);
+        refused(&GRID.replace("seeds = [0, 1]", "seeds = []"), &["grid.seeds is empty"]);
+        refused(&GRID.replace("\"none\", ", "\"none\", \"none\", "), &["appears twice", "line 5"]);
+        refused(&GRID.replace("Hopper-v5\"]", "Hoper-v5\"]"), &["unknown task 'Hoper-v5'", "line 4"]);
+        refused(&GRID.replace("steps = 1000\n", ""), &["budget"]);
+    }
+}

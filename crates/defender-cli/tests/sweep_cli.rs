@@ -1,0 +1,112 @@
+//! `defender sweep` through the binary: an experiment file expands to ordinary runs, a sweep
+//! stopped by SIGTERM and started again gives the same results as one left alone, complete runs
+//! are skipped, and bad experiment files are refused before anything runs.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn defender(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().expect("run defender")
+}
+
+fn text(out: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+fn smoke() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/smoke.toml")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const RUNS: [&str; 2] = ["InvertedDoublePendulum-v5/sac-bare-s0", "InvertedDoublePendulum-v5/sac-MinDemoW5-MinDemoW10-s0"];
+
+fn metrics(dir: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect()
+}
+
+fn actor_tensors(dir: &Path) -> Vec<u8> {
+    let bytes = std::fs::read(dir.join("actor.safetensors")).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    bytes[8 + n..].to_vec()
+}
+
+#[test]
+fn a_sweep_stopped_by_sigterm_and_started_again_equals_one_left_alone() {
+    let root = tempfile::tempdir().unwrap();
+    let alone = root.path().join("alone");
+    let out = defender(&["sweep", s(&smoke()), "--out", s(&alone), "--jobs", "2"]);
+    assert!(out.status.success(), "{}", text(&out));
+    let listed = text(&defender(&["sweep", s(&smoke()), "--out", s(&alone), "--list"]));
+    assert_eq!(listed.matches("complete").count(), 2, "{listed}");
+
+    let stopped = root.path().join("stopped");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_defender"))
+        .args(["sweep", s(&smoke()), "--out", s(&stopped), "--jobs", "2"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Stop it once both runs are under way and have checkpointed.
+    let start = Instant::now();
+    while !RUNS.iter().all(|r| stopped.join(r).join("checkpoint/trainer.json").exists())
+        && start.elapsed() < Duration::from_secs(120)
+    {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(143), "a sweep stopped by SIGTERM exits 143");
+    for r in RUNS {
+        let dir = stopped.join(r);
+        // No run is left running: its directory can be locked again.
+        let lock = defender_io::DirLock::try_acquire(&dir);
+        assert!(lock.is_ok(), "{r} still has a writer after the sweep stopped");
+    }
+    let listed = text(&defender(&["sweep", s(&smoke()), "--out", s(&stopped), "--list"]));
+    assert!(listed.contains("stopped"), "{listed}");
+
+    let again = defender(&["sweep", s(&smoke()), "--out", s(&stopped), "--jobs", "2"]);
+    assert!(again.status.success(), "{}", text(&again));
+    for r in RUNS {
+        assert_eq!(metrics(&alone.join(r)), metrics(&stopped.join(r)), "{r}: metrics.csv differs");
+        let eval = |d: &Path| std::fs::read_to_string(d.join(r).join("eval.csv")).unwrap();
+        assert_eq!(eval(&alone), eval(&stopped), "{r}: eval.csv differs");
+        assert!(actor_tensors(&alone.join(r)) == actor_tensors(&stopped.join(r)), "{r}: the actors differ");
+    }
+    // Everything complete: a third start skips both runs.
+    let third = defender(&["sweep", s(&smoke()), "--out", s(&stopped)]);
+    assert!(text(&third).contains("2 complete, 0 to run"), "{}", text(&third));
+    // The report reads the sweep as it reads any runs.
+    let report = defender(&["report", s(&stopped)]);
+    assert!(report.status.success(), "{}", text(&report));
+    assert!(text(&report).contains("MinDemoW5"), "{}", text(&report));
+}
+
+#[test]
+fn bad_experiment_files_are_refused_before_anything_runs() {
+    let root = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(smoke()).unwrap();
+    let cases = [
+        (base.replace("[budget]", "[budget]\nsteeps = 3"), vec!["steeps", "line"]),
+        (base.replace("MinDemoW5/MinDemoW10", "MinDemoW5/Nope"), vec!["Nope", "line 7"]),
+        (base.replace("seeds = [0]", "seeds = []"), vec!["grid.seeds is empty"]),
+        (base.replace("\"none\", ", "\"none\", \"none\", "), vec!["appears twice"]),
+    ];
+    for (i, (textual, expect)) in cases.iter().enumerate() {
+        let file = root.path().join(format!("bad{i}.toml"));
+        std::fs::write(&file, textual).unwrap();
+        let out_dir = root.path().join(format!("out{i}"));
+        let out = defender(&["sweep", s(&file), "--out", s(&out_dir)]);
+        let msg = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{msg}");
+        for e in expect {
+            assert!(msg.contains(e), "'{e}' missing from: {msg}");
+        }
+        assert!(!out_dir.exists(), "a refused experiment created its output");
+    }
+}
