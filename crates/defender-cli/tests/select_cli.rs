@@ -104,6 +104,10 @@ fn select_refuses_bad_input_clearly() {
         &["select", "--demos", s(&demos), "--strategies", "MinBoth/Nope", "--out", s(&csv)],
         &["unknown strategy 'MinBoth/Nope'"],
     );
+    refused(
+        &["select", "--demos", s(&demos), "--max-false-alarm", "nan", "--out", s(&csv)],
+        &["max_false_alarm must be a rate in [0, 1], got NaN"],
+    );
     assert!(!csv.exists());
 }
 
@@ -158,6 +162,7 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     assert_eq!(record["chosen_by"].as_str(), Some("auto"));
     assert_eq!(record["candidates"].as_integer(), Some(441));
     assert_eq!(record["equal"].as_bool(), Some(false));
+    assert_eq!(record["max_false_alarm"].as_float(), Some(0.1));
     assert_eq!(record["safe_demos"].as_integer(), Some(3));
     assert_eq!(record["false_alarm_rate"].as_float(), Some(fa));
     assert_eq!(record["crash_prevention_rate"].as_float(), Some(cp));

@@ -192,6 +192,8 @@ pub struct StrategySelection {
     pub equal: bool,
     /// L: the lead time (steps before the crash) a prevented crash needed.
     pub min_lead: usize,
+    /// The false-alarm budget: strategies with a higher false-alarm rate were not chosen.
+    pub max_false_alarm: f64,
     /// Safe demonstrations used.
     pub safe_demos: usize,
     /// Unsafe demonstrations used.

@@ -25,8 +25,9 @@
 //! With recorded episodes, `ablation_score` is the SPEC-7 score of the strategy on them and
 //! `score = demo_score x ablation_score`; without, `score = demo_score`.
 //!
-//! **Ranking.** A strategy that filters every held-out safe demonstration (`false_alarm_rate = 1`)
-//! is not eligible and ranks after every eligible one. Then: `score` highest first, ties by
+//! **Ranking.** A strategy is *eligible* when its false-alarm rate is at most
+//! [`SelectionConfig::max_false_alarm`] (default 0.1) and below 1 (it never filters every
+//! held-out safe demonstration, whatever the budget); eligible strategies rank first. Then: `score` highest first, ties by
 //! `safe_allowed` (later false alarms cost less), then `unsafe_allowed` (of two strategies that
 //! catch the same crashes, the one that waits longer is the less aggressive: it is less likely to
 //! stop an agent whose early states resemble neither group), then the strategy's name. [`Selection::best`] is the first row if it is eligible.
@@ -126,12 +127,16 @@ pub struct SelectionConfig {
     pub strategies: Option<Vec<Strategy>>,
     /// `L`: the lead time, in steps before the crash, that a prevented crash needs (>= 1).
     pub min_lead: usize,
+    /// The false-alarm budget: a strategy whose false-alarm rate exceeds it is not chosen
+    /// (in [0, 1]; default 0.1).
+    pub max_false_alarm: f64,
     /// Options of the alignment cost.
     pub cost: CostOptions,
 }
 
 impl Default for SelectionConfig {
-    /// State mode, all demonstrations, all 576 strategies, `L = 1`, plain DTW.
+    /// State mode, all demonstrations, all 576 strategies, `L = 1`, a 10% false-alarm budget,
+    /// plain DTW.
     fn default() -> Self {
         Self {
             mode: Mode::State,
@@ -139,6 +144,7 @@ impl Default for SelectionConfig {
             equal: true,
             strategies: None,
             min_lead: 1,
+            max_false_alarm: 0.1,
             cost: CostOptions::default(),
         }
     }
@@ -183,8 +189,7 @@ pub struct StrategyScore {
     pub ablation_score: Option<f64>,
     /// `demo_score x ablation_score`, or `demo_score` without recorded episodes.
     pub score: f64,
-    /// `false_alarm_rate < 1`: some held-out safe demonstration passes. Only eligible strategies
-    /// are chosen.
+    /// `false_alarm_rate <= max_false_alarm` and `< 1`. Only eligible strategies are chosen.
     pub eligible: bool,
 }
 
@@ -199,13 +204,15 @@ pub struct Selection {
     pub episodes: usize,
     /// `L`.
     pub min_lead: usize,
+    /// The false-alarm budget.
+    pub max_false_alarm: f64,
     /// Every strategy ranked, best first.
     pub rows: Vec<StrategyScore>,
 }
 
 impl Selection {
-    /// The chosen strategy: the first row, unless no strategy is eligible (all of them filter
-    /// every held-out safe demonstration).
+    /// The chosen strategy: the first row, unless no strategy is eligible (each one raises more
+    /// false alarms than the budget allows, or filters every held-out safe demonstration).
     pub fn best(&self) -> Option<&StrategyScore> {
         self.rows.first().filter(|r| r.eligible)
     }
@@ -285,7 +292,13 @@ impl Tally {
         }
     }
 
-    fn score(&self, strategy: Strategy, mode: Mode, ablation_score: Option<f64>) -> StrategyScore {
+    fn score(
+        &self,
+        strategy: Strategy,
+        mode: Mode,
+        ablation_score: Option<f64>,
+        max_fa: f64,
+    ) -> StrategyScore {
         let rate = |k: usize, n: usize| k as f64 / n.max(1) as f64;
         let false_alarm_rate = rate(self.false_alarms, self.safe);
         let crash_prevention_rate = rate(self.prevented, self.unsafe_);
@@ -302,7 +315,7 @@ impl Tally {
             demo_score,
             ablation_score,
             score: demo_score * ablation_score.unwrap_or(1.0),
-            eligible: self.false_alarms < self.safe,
+            eligible: self.false_alarms < self.safe && false_alarm_rate <= max_fa,
         }
     }
 }
@@ -333,8 +346,8 @@ pub fn rank_selection(mut rows: Vec<StrategyScore>) -> Vec<StrategyScore> {
 ///
 /// # Errors
 /// A missing group; fewer than two demonstrations in a group (leave-one-out needs another one);
-/// `num_demos` larger than a group; `min_lead = 0`; no strategy to rank; recorded episodes of
-/// another task (dimensions or env id) or an empty episode set.
+/// `num_demos` larger than a group; `min_lead = 0`; `max_false_alarm` outside [0, 1] or NaN; no
+/// strategy to rank; recorded episodes of another task (dimensions or env id) or an empty episode set.
 pub fn select(
     demos: &EpisodeSet,
     episodes: Option<&EpisodeSet>,
@@ -362,6 +375,12 @@ pub fn select(
     }
     if config.min_lead == 0 {
         return Err(DefenderError::Config("min_lead must be >= 1 (steps before the crash)".into()));
+    }
+    if !(0.0..=1.0).contains(&config.max_false_alarm) {
+        return Err(DefenderError::Config(format!(
+            "max_false_alarm must be a rate in [0, 1], got {}",
+            config.max_false_alarm
+        )));
     }
     let candidates = config.candidates();
     if candidates.is_empty() {
@@ -407,13 +426,16 @@ pub fn select(
     let rows = strategies
         .iter()
         .enumerate()
-        .map(|(i, &s)| tallies[i].score(s, config.mode, ablation_scores.as_ref().map(|a| a[i])))
+        .map(|(i, &s)| {
+            tallies[i].score(s, config.mode, ablation_scores.as_ref().map(|a| a[i]), config.max_false_alarm)
+        })
         .collect();
     Ok(Selection {
         mode: config.mode,
         demos: (n_safe, n_unsafe),
         episodes: episodes.map_or(0, EpisodeSet::len),
         min_lead: config.min_lead,
+        max_false_alarm: config.max_false_alarm,
         rows: rank_selection(rows),
     })
 }
@@ -427,7 +449,7 @@ mod tests {
         for &(len, crashed, k) in entries {
             t.add(len, crashed, k, min_lead);
         }
-        t.score("MinBoth/MinBoth".parse().unwrap(), Mode::State, None)
+        t.score("MinBoth/MinBoth".parse().unwrap(), Mode::State, None, 1.0)
     }
 
     #[test]

@@ -125,8 +125,10 @@ fn never_chooses_a_strategy_that_filters_every_held_out_safe_demonstration() {
         set.push_episode(e.obs, e.act, e.rew, false).unwrap();
         set.push_episode(e.obs, e.act, e.rew, true).unwrap();
     }
-    let selection =
-        select(&set, None, &SelectionConfig { equal: false, ..Default::default() }, &quiet()).unwrap();
+    // Without a false-alarm budget, only the strategies that filter every held-out safe
+    // demonstration are left out.
+    let config = SelectionConfig { equal: false, max_false_alarm: 1.0, ..Default::default() };
+    let selection = select(&set, None, &config, &quiet()).unwrap();
     let all_alarms: Vec<_> = selection.rows.iter().filter(|r| r.false_alarm_rate == 1.0).collect();
     assert!(!all_alarms.is_empty());
     let first_ineligible = all_alarms.iter().map(|r| r.rank).min().unwrap();
@@ -137,9 +139,18 @@ fn never_chooses_a_strategy_that_filters_every_held_out_safe_demonstration() {
     if let Some(best) = selection.best() {
         assert!(best.false_alarm_rate < 1.0);
     }
+    // The default budget (10%) leaves out more.
+    let budget =
+        select(&set, None, &SelectionConfig { equal: false, ..Default::default() }, &quiet()).unwrap();
+    for r in &budget.rows {
+        assert_eq!(r.eligible, r.false_alarm_rate <= 0.1, "{r:?}");
+    }
+    if let Some(best) = budget.best() {
+        assert!(best.false_alarm_rate <= 0.1);
+    }
     // Restricted to strategies that all alarm on every safe demonstration: nothing is chosen.
     let only_bad: Vec<Strategy> = all_alarms.iter().map(|r| r.strategy).collect();
-    let config = SelectionConfig { strategies: Some(only_bad), ..Default::default() };
+    let config = SelectionConfig { strategies: Some(only_bad), max_false_alarm: 1.0, ..Default::default() };
     let selection = select(&set, None, &config, &quiet()).unwrap();
     assert!(selection.best().is_none());
 }
@@ -218,6 +229,12 @@ fn bad_input_is_a_clear_error() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("min_lead"), "{err}");
+    for bad in [f64::NAN, -0.1, 1.5] {
+        let err = select(&set, None, &SelectionConfig { max_false_alarm: bad, ..config.clone() }, &quiet())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("max_false_alarm must be a rate in [0, 1]"), "{err}");
+    }
     let other = LateDivergence { obs_dim: 4, ..LateDivergence::SMALL }.build(1, Meta::default()).unwrap();
     let err = select(&set, Some(&other), &config, &quiet()).unwrap_err().to_string();
     assert!(err.contains("'obs'") && err.contains("4 columns"), "{err}");

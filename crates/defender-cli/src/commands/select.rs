@@ -28,8 +28,9 @@ use crate::progress;
   - demo_score = (1 - false_alarm_rate) x crash_prevention_rate;
   - with --episodes: score = demo_score x the ablation score on the recorded episodes
     (SPEC section 7: mean episode-length ratio x safe-episode rate); else score = demo_score.
-  Ranking: strategies that filter every held-out safe demonstration come last and are never
-  chosen; then score, highest first; ties by safe_allowed, then unsafe_allowed (higher: the less
+  Ranking: a strategy is eligible when false_alarm_rate <= --max-false-alarm (default 0.1) and
+  < 1 (it never filters every held-out safe demonstration); eligible strategies come first and
+  only they are chosen. Then score, highest first; ties by safe_allowed, then unsafe_allowed (higher: the less
   aggressive of two equally good strategies), then the name. The CSV columns are described in
   docs/run-directory.md (\"selection.csv\").
 
@@ -61,6 +62,10 @@ pub struct SelectArgs {
     /// L: steps before the crash by which a held-out unsafe demonstration must be filtered.
     #[arg(long, default_value_t = 1)]
     pub min_lead: usize,
+    /// The false-alarm budget: strategies that filter a larger fraction of the held-out safe
+    /// demonstrations are not chosen.
+    #[arg(long, default_value_t = 0.1)]
+    pub max_false_alarm: f64,
     /// Rows to print.
     #[arg(long, default_value_t = 10)]
     pub top: usize,
@@ -82,6 +87,7 @@ pub fn run(args: SelectArgs) -> Result<()> {
             Some(defender::Strategy::parse_list(&args.strategies)?)
         },
         min_lead: args.min_lead,
+        max_false_alarm: args.max_false_alarm,
         cost: Default::default(),
     };
     let demos = EpisodeSet::load(&args.demos)?;
@@ -106,7 +112,11 @@ pub fn run(args: SelectArgs) -> Result<()> {
     );
     match selection.best() {
         Some(best) => println!("chosen: {} ({mode})", best.strategy),
-        None => println!("no strategy chosen: every one filters every held-out safe demonstration"),
+        None => println!(
+            "no strategy chosen: each one raises false alarms on more than {}% of the held-out safe \
+             demonstrations (--max-false-alarm)",
+            100.0 * config.max_false_alarm
+        ),
     }
     Ok(())
 }
@@ -168,8 +178,10 @@ pub fn choose_for_run(
         .with_context(|| format!("strategy = \"auto\": choosing a strategy for {task}"))?;
     let Some(best) = selection.best() else {
         bail!(
-            "strategy = \"auto\": every strategy filters every held-out safe demonstration of {}; \
-             give --strategy SAFE/UNSAFE",
+            "strategy = \"auto\": every strategy filters more than {}% of the held-out safe \
+             demonstrations of {} (false alarms that would stop the agent from learning); rank them \
+             with `defender select` and give --strategy SAFE/UNSAFE",
+            100.0 * config.max_false_alarm,
             demos.source().display()
         );
     };
@@ -178,6 +190,7 @@ pub fn choose_for_run(
         candidates: selection.rows.len(),
         equal: config.equal,
         min_lead: config.min_lead,
+        max_false_alarm: config.max_false_alarm,
         safe_demos: selection.demos.0,
         unsafe_demos: selection.demos.1,
         false_alarm_rate: best.false_alarm_rate,
@@ -195,5 +208,14 @@ pub fn choose_for_run(
         100.0 * record.false_alarm_rate,
         100.0 * record.crash_prevention_rate
     );
+    if record.crash_prevention_rate < 0.5 {
+        eprintln!(
+            "warning: {} catches only {:.0}% of the held-out crashes within the false-alarm budget: \
+             the demonstrations hardly tell safe from unsafe; recorded episodes of an agent \
+             (`defender select --episodes`) may choose better",
+            best.strategy,
+            100.0 * record.crash_prevention_rate
+        );
+    }
     Ok((best.strategy, record))
 }
