@@ -105,7 +105,8 @@ macro_rules! dispatch {
                 fn avx2($($arg: $ty),*) -> $ret { $kernel::<{ $l2 }, true>($($arg),*) }
                 match isa {
                     // SAFETY: `Isa::detect` returned this variant only after checking that the CPU
-                    // has every feature the wrapper enables.
+                    // has every feature the wrapper enables (`kernels::with_kernel` forces only a
+                    // variant whose features are a subset of the detected one's).
                     $crate::lanes::Isa::Avx512 => return unsafe { avx512($($arg),*) },
                     // SAFETY: as above.
                     $crate::lanes::Isa::Avx2 => return unsafe { avx2($($arg),*) },

@@ -2,6 +2,8 @@
 
 mod error;
 mod kernel;
+#[doc(hidden)]
+pub mod kernels;
 mod lanes;
 mod references;
 mod settings;

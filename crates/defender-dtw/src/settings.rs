@@ -101,8 +101,14 @@ pub fn dtw(x: &[f32], y: &[f32], dim: usize, settings: &Dtw) -> Result<f32> {
     Ok(kernel::dtw_cost(isa(), &problem, &mut Vec::new()))
 }
 
-/// The instruction set of this CPU, detected once per process.
+/// The instruction set DTW uses: this CPU's best, detected once per process, unless this thread
+/// forces another one ([`crate::kernels::with_kernel`], for tests).
 pub(crate) fn isa() -> Isa {
+    crate::kernels::forced().unwrap_or_else(detected)
+}
+
+/// This CPU's best instruction set, detected once per process.
+pub(crate) fn detected() -> Isa {
     static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
     *ISA.get_or_init(Isa::detect)
 }
