@@ -15,6 +15,8 @@ pub use error::{NnError, Result};
 pub use loss::{mse_loss, mse_loss_grad};
 pub use mlp::Mlp;
 pub use parallelism::Parallelism;
+#[doc(hidden)]
+pub use parallelism::parallel_gemms_on_this_thread;
 
 /// Re-export of the `faer` version this crate's matrices come from.
 pub use faer;

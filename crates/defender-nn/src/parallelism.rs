@@ -55,9 +55,21 @@ impl Parallelism {
     pub(crate) fn for_gemm(self, m: usize, n: usize, k: usize) -> Par {
         match self {
             Parallelism::Threads(t) if m.saturating_mul(n).saturating_mul(k) >= PARALLEL_MIN_MACS => {
+                PARALLEL_GEMMS.with(|c| c.set(c.get() + 1));
                 Par::Rayon(t)
             }
             _ => Par::Seq,
         }
     }
+}
+
+thread_local! {
+    static PARALLEL_GEMMS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// How many GEMMs this thread has handed to rayon so far (for tests: proof that a shape really
+/// takes the parallel path). Not part of the API.
+#[doc(hidden)]
+pub fn parallel_gemms_on_this_thread() -> u64 {
+    PARALLEL_GEMMS.with(std::cell::Cell::get)
 }

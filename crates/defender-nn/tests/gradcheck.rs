@@ -155,13 +155,29 @@ fn threads_do_not_change_results_and_batches_reuse_buffers() {
     let mut par = seq.clone().with_parallelism(Parallelism::threads(2));
     let x = Mat::<f32>::from_fn(256, 14, |_, _| rng.random_range(-1.0..1.0));
     let g = Mat::<f32>::from_fn(256, 1, |_, _| rng.random_range(-1.0..1.0));
+    let gemms = defender_nn::parallel_gemms_on_this_thread;
+    let before = gemms();
     let out_seq = seq.forward(x.as_ref()).to_owned();
-    let out_par = par.forward(x.as_ref()).to_owned();
-    assert_eq!(out_seq, out_par);
     let gi_seq = seq.backward(g.as_ref()).to_owned();
+    assert_eq!(gemms(), before, "the sequential network handed a GEMM to rayon");
+    let out_par = par.forward(x.as_ref()).to_owned();
+    let forward_gemms = gemms() - before;
     let gi_par = par.backward(g.as_ref()).to_owned();
+    // These shapes go parallel: every layer of the forward pass (14x256 and 256x256 over a batch
+    // of 256 are above the threshold) and the backward products; so the comparison is real.
+    assert!(forward_gemms >= 2, "only {forward_gemms} parallel GEMMs in the forward pass");
+    assert!(gemms() - before > forward_gemms, "no parallel GEMM in the backward pass");
+    assert_eq!(out_seq, out_par);
     assert_eq!(gi_seq, gi_par);
     assert_eq!(seq.grads(), par.grads());
+    // Other thread counts (more than the machine's cores included) give the same bits.
+    for threads in [3, 4, 8] {
+        let mut other = seq.clone().with_parallelism(Parallelism::threads(threads));
+        other.zero_grad();
+        let before = gemms();
+        assert_eq!(other.forward(x.as_ref()).to_owned(), out_seq, "{threads} threads");
+        assert!(gemms() > before, "{threads} threads: not parallel");
+    }
 
     // A batch-1 pass in between (acting) does not disturb a later batch-256 pass, and each row
     // of a batch equals the same sample alone.
