@@ -274,3 +274,15 @@ fn foreign_directories_and_unwritable_outputs_are_refused_before_any_work() {
         &["r_task", "out of range"],
     );
 }
+
+#[test]
+fn impossible_sizes_are_errors_not_aborts() {
+    let root = tempfile::tempdir().unwrap();
+    for (i, (section, expect)) in
+        [("buffer_size = 1000000000000", "buffer_size"), ("net_arch = [100000000, 100000000]", "net_arch")].iter().enumerate()
+    {
+        let config = root.path().join(format!("c{i}.toml"));
+        std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\ntotal_steps = 100\n[sac]\n{section}\n")).unwrap();
+        refused(&["train", "--config", s(&config), "--out", s(&root.path().join(format!("o{i}")))], &[expect, "invalid configuration"]);
+    }
+}

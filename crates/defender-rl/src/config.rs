@@ -199,6 +199,12 @@ struct Common<'a> {
     net_arch: &'a [usize],
 }
 
+/// The widest hidden layer accepted.
+const MAX_LAYER_WIDTH: usize = 1 << 16;
+/// The most weights between hidden layers accepted: 1 GB of f32 per network (and SAC keeps
+/// about ten copies: actor, two critics, their targets and Adam's moments).
+const MAX_HIDDEN_WEIGHTS: usize = 1 << 28;
+
 /// Checks the settings both algorithms share.
 fn check_common(c: Common<'_>) -> Result<(), RlError> {
     let Common { learning_rate, buffer_size, batch_size, tau, gamma, train_freq, net_arch } = c;
@@ -222,6 +228,16 @@ fn check_common(c: Common<'_>) -> Result<(), RlError> {
     }
     if net_arch.is_empty() || net_arch.contains(&0) {
         return Err(bad("net_arch", format!("{net_arch:?}"), "one or more positive layer widths"));
+    }
+    let hidden_weights = net_arch
+        .windows(2)
+        .try_fold(0usize, |sum, w| w[0].checked_mul(w[1]).and_then(|n| sum.checked_add(n)));
+    if net_arch.iter().any(|&w| w > MAX_LAYER_WIDTH) || hidden_weights.is_none_or(|n| n > MAX_HIDDEN_WEIGHTS) {
+        return Err(bad(
+            "net_arch",
+            format!("{net_arch:?}"),
+            "layers of at most 65536 units and at most 2^28 weights between hidden layers (1 GB per network)",
+        ));
     }
     Ok(())
 }

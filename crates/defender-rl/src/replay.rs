@@ -86,7 +86,8 @@ impl ReplayBuffer {
     /// maps the zeroed pages lazily).
     ///
     /// # Errors
-    /// [`RlError::Config`] if `capacity` or a dimension is zero.
+    /// [`RlError::Config`] if `capacity` or a dimension is zero, or the buffer does not fit in
+    /// memory.
     pub fn new(capacity: usize, obs_dim: usize, act_dim: usize) -> Result<Self, RlError> {
         if capacity == 0 {
             return Err(RlError::Config { field: "buffer_size", value: "0".into(), expected: "at least 1" });
@@ -98,18 +99,24 @@ impl ReplayBuffer {
                 expected: "both at least 1",
             });
         }
+        let too_big = |what: &str| RlError::Config {
+            field: "buffer_size",
+            value: format!("{capacity} ({what} of {capacity} x {obs_dim} observations cannot be allocated)"),
+            expected: "a replay buffer that fits in this machine's memory",
+        };
+        let floats = |n: Option<usize>, what: &str| n.and_then(zeroed::<f32>).ok_or_else(|| too_big(what));
         Ok(Self {
             obs_dim,
             act_dim,
             capacity,
             pos: 0,
             full: false,
-            obs: vec![0.0; capacity * obs_dim],
-            next_obs: vec![0.0; capacity * obs_dim],
-            actions: vec![0.0; capacity * act_dim],
-            rewards: vec![0.0; capacity],
-            terminated: vec![false; capacity],
-            truncated: vec![false; capacity],
+            obs: floats(capacity.checked_mul(obs_dim), "the observations")?,
+            next_obs: floats(capacity.checked_mul(obs_dim), "the next observations")?,
+            actions: floats(capacity.checked_mul(act_dim), "the actions")?,
+            rewards: floats(Some(capacity), "the rewards")?,
+            terminated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
+            truncated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
         })
     }
 
@@ -293,6 +300,28 @@ impl ReplayBuffer {
         Ok(())
     }
 }
+
+/// A vector of `n` zeroes, or `None` if the memory cannot be had (instead of aborting the
+/// process, as `vec![0.0; n]` does). Like `vec!`, it asks the allocator for zeroed memory, which
+/// the OS maps lazily.
+fn zeroed<T: Zeroable>(n: usize) -> Option<Vec<T>> {
+    if n == 0 {
+        return Some(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<T>(n).ok()?;
+    // SAFETY: `layout` has a non-zero size; a non-null result is a fresh allocation of `n`
+    // values of `T` whose all-zero bit pattern is a valid value (the `Zeroable` contract), made
+    // with the global allocator and the layout `Vec` uses for a capacity of `n`.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout).cast::<T>();
+        if ptr.is_null() { None } else { Some(Vec::from_raw_parts(ptr, n, n)) }
+    }
+}
+
+/// Types whose all-zero bit pattern is a valid value (`0.0`, `false`).
+trait Zeroable: Copy {}
+impl Zeroable for f32 {}
+impl Zeroable for bool {}
 
 #[cfg(test)]
 mod tests {
