@@ -9,7 +9,8 @@
 //! (zip's checksum, as SB3's zip checkpoints) of every other file in it. [`resolve`] verifies
 //! every listed file before anything is parsed, so a flipped bit or a truncated file is an error
 //! naming the file, never a silently different run. A checkpoint without a manifest (written
-//! before manifests existed) is refused: its integrity cannot be checked.
+//! before manifests existed) is accepted with a warning on stderr, so that a run begun with an
+//! older version is not lost; its next checkpoint has a manifest.
 
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -126,11 +127,14 @@ pub fn verify(dir: &Path) -> Result<(), RlError> {
     let meta = match std::fs::metadata(&path) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(RlError::checkpoint(
-                &path,
-                "missing: this checkpoint was written by an older defender (or not completely), so its \
-                 integrity cannot be checked; start the run again in a new directory",
-            ));
+            // A checkpoint of a version before manifests: refusing it would lose the run, so it
+            // is accepted with a warning (its next checkpoint has a manifest).
+            eprintln!(
+                "warning: {}: no manifest.json (a checkpoint written by an older defender), so its files \
+                 cannot be verified; the next checkpoint will have one",
+                dir.display()
+            );
+            return Ok(());
         }
         Err(e) => return Err(RlError::io(&path, e)),
     };
@@ -220,8 +224,7 @@ mod tests {
         std::fs::remove_file(dir.join("agent/actor.bin")).unwrap();
         assert!(resolve(&dir).unwrap_err().to_string().contains("missing"));
         std::fs::remove_file(dir.join(MANIFEST_FILE)).unwrap();
-        let err = resolve(&dir).unwrap_err().to_string();
-        assert!(err.contains("manifest.json") && err.contains("older defender"), "{err}");
+        resolve(&dir).expect("an older checkpoint (no manifest) is accepted with a warning");
         std::fs::write(
             dir.join(MANIFEST_FILE),
             r#"{"format": 1, "files": {"../x": {"bytes": 0, "crc32": "0"}}}"#,
