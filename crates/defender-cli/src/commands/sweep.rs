@@ -50,7 +50,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
                     "name": run.name,
                     "dir": dir,
                     "state": state.as_str(),
-                    "config": toml::to_string(&run.config)?,
+                    "config": toml::to_string(&run.config_in(&args.out))?,
                 });
                 println!("{line}");
             } else {

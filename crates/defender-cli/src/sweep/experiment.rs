@@ -125,6 +125,21 @@ pub struct PlannedRun {
     pub config: RunConfig,
 }
 
+impl PlannedRun {
+    /// The configuration as the run is started in the sweep directory `root`: a relative
+    /// `record_episodes` path (e.g. `"episodes.npz"`) is placed inside the run's own directory.
+    pub fn config_in(&self, root: &Path) -> RunConfig {
+        let mut config = self.config.clone();
+        if let Some(path) = &config.record_episodes
+            && path.is_relative()
+        {
+            let root = std::path::absolute(root).unwrap_or_else(|_| root.to_path_buf());
+            config.record_episodes = Some(root.join(&self.name).join(path));
+        }
+        config
+    }
+}
+
 /// An expanded experiment.
 #[derive(Debug)]
 pub struct Experiment {

@@ -97,7 +97,7 @@ fn log_tail(path: &Path) -> String {
 fn spawn(binary: &Path, root: &Path, run: &PlannedRun, state: RunState) -> Result<Running> {
     let sweep = root.join(SWEEP_DIR);
     let config_path = sweep.join("configs").join(format!("{}.toml", flat(&run.name)));
-    let text = toml::to_string_pretty(&run.config).context("cannot serialise a run configuration")?;
+    let text = toml::to_string_pretty(&run.config_in(root)).context("cannot serialise a run configuration")?;
     defender_io::write_bytes(&config_path, text.as_bytes())
         .map_err(|(p, e)| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
     let log_path = sweep.join("logs").join(format!("{}.log", flat(&run.name)));
