@@ -2,6 +2,8 @@
 //! rank the 576 filtering strategies offline, report the paper's tables and plots, and measure.
 
 mod commands;
+#[cfg(test)]
+mod fuzz;
 mod progress;
 mod resume;
 mod run_dir;

@@ -92,6 +92,34 @@ impl<R: Read> Read for Counting<R> {
 
 type Entry<'a> = zip::read::ZipFile<'a, BufReader<File>>;
 
+/// numpy refuses `.npy` headers longer than this by default (`np.load(max_header_size=10000)`).
+const MAX_HEADER_BYTES: u64 = 10_000;
+
+/// Reads an `.npy` preamble (magic, version, header length) and checks the declared header length
+/// before anything is allocated from it.
+fn read_preamble(r: &mut impl Read) -> std::io::Result<Vec<u8>> {
+    let bad = |what: String| std::io::Error::new(std::io::ErrorKind::InvalidData, what);
+    let mut pre = vec![0u8; 10];
+    r.read_exact(&mut pre)?;
+    if &pre[..6] != b"\x93NUMPY" {
+        return Err(bad("not an .npy file (no magic string)".into()));
+    }
+    let len = match pre[6] {
+        1 => u64::from(u16::from_le_bytes([pre[8], pre[9]])),
+        2 | 3 => {
+            let mut more = [0u8; 2];
+            r.read_exact(&mut more)?;
+            pre.extend_from_slice(&more);
+            u64::from(u32::from_le_bytes([pre[8], pre[9], more[0], more[1]]))
+        }
+        v => return Err(bad(format!("unsupported .npy format version {v}"))),
+    };
+    if len > MAX_HEADER_BYTES {
+        return Err(bad(format!("a header of {len} bytes (numpy reads at most {MAX_HEADER_BYTES})")));
+    }
+    Ok(pre)
+}
+
 impl NpzReader {
     pub fn open(path: &Path) -> Result<Self> {
         let file = File::open(path).map_err(|e| DefenderError::io(path, e))?;
@@ -141,7 +169,11 @@ impl NpzReader {
             )));
         }
         let mut counting = Counting { inner: entry, count: 0 };
-        let npy = NpyHeader::from_reader(&mut counting).map_err(|e| format(format!("bad .npy: {e}")))?;
+        // The preamble first: the header length it declares is checked before anything is
+        // allocated from it (as numpy's `max_header_size`).
+        let preamble = read_preamble(&mut counting).map_err(|e| format(format!("bad .npy: {e}")))?;
+        let npy = NpyHeader::from_reader(std::io::Cursor::new(preamble).chain(&mut counting))
+            .map_err(|e| format(format!("bad .npy: {e}")))?;
         let Counting { inner: entry, count: header_len } = counting;
         let dtype = npy.dtype();
         let descr = dtype.descr();
