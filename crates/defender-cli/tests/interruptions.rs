@@ -286,3 +286,18 @@ fn impossible_sizes_are_errors_not_aborts() {
         refused(&["train", "--config", s(&config), "--out", s(&root.path().join(format!("o{i}")))], &[expect, "invalid configuration"]);
     }
 }
+
+#[test]
+fn long_commands_check_their_output_path_before_working() {
+    let demos = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos").join(format!("{ENV_ID}.npz"));
+    let start = Instant::now();
+    refused(
+        &["demos", "collect", "--env", ENV_ID, "--safe", "2", "--unsafe", "2", "--out", "/no/such/dir/d.npz"],
+        &["--out", "/no/such/dir/d.npz"],
+    );
+    refused(
+        &["ablate", "--demos", s(&demos), "--episodes", s(&demos), "--out", "/no/such/dir/s.csv"],
+        &["--out", "/no/such/dir/s.csv"],
+    );
+    assert!(start.elapsed() < Duration::from_secs(20), "refused only after the work");
+}

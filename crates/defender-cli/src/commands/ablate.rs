@@ -58,6 +58,8 @@ pub fn run(args: AblateArgs) -> Result<()> {
         );
     }
     let mode: Mode = args.mode.parse()?;
+    // The ablation can take minutes to hours: refuse an unwritable --out before it starts.
+    crate::run_dir::check_writable(&args.out).context("--out")?;
     let mut strategies: Vec<Strategy> = if args.strategies == "all" {
         Strategy::all().collect()
     } else {

@@ -90,6 +90,8 @@ fn collect(args: &CollectArgs) -> Result<()> {
     if args.safe == 0 || args.unsafe_ == 0 {
         bail!("--safe and --unsafe must be >= 1 (DEFENDER needs both groups)");
     }
+    // A collection trains for up to a million steps: refuse an unwritable --out before that.
+    crate::run_dir::check_writable(&args.out).context("--out")?;
     let make = || -> Result<TimeLimit<MujocoEnv>> {
         let env = defender_mujoco::make(&args.env)?;
         Ok(match args.max_episode_steps {
