@@ -1,8 +1,8 @@
 //! Hostile episode-set files through the `defender` binary, as a user meets them (`ablate
 //! --demos`): a deflate bomb, a header declaring 10^12 elements, `ep_len` values whose sum
-//! overflows or that are negative, an archive lying about its sizes. Each is refused at once with
-//! an error naming the file, the array and what was expected; none panics or allocates what the
-//! file declares.
+//! overflows or that are negative, an archive lying about its sizes, an `.npy` header length of
+//! 600 MB. Each is refused at once with an error naming the file, the array and what was
+//! expected; none panics or allocates what the file declares.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
@@ -73,6 +73,9 @@ big = np.array([2**63 - 1] * 3, dtype=np.int64)
 zip_file(d + "/overflow.npz", valid(ep_len=npy(big), crashed=npy(np.array([False, True, True]))))
 zip_file(d + "/negative.npz", valid(ep_len=npy(np.array([-1, 4]))))
 
+# A version-3 .npy preamble declaring a 600 MB header (numpy reads at most 10000 bytes).
+zip_file(d + "/big_header.npz", valid(rew=b"\x93NUMPY\x03\x00" + struct.pack("<I", 600_000_000) + b"{'descr': '<f4'"))
+
 # An archive whose directory claims 10^9 bytes inflated from a few compressed ones.
 small = zlib.compressobj(9, zlib.DEFLATED, -15)
 payload = small.compress(npy(np.zeros(3, np.float32))) + small.flush()
@@ -92,6 +95,7 @@ fn hostile_episode_sets_are_refused_at_once_naming_file_array_and_rule() {
         ("overflow.npz", &["array 'ep_len'", "overflows"]),
         ("negative.npz", &["array 'ep_len'", "N_i >= 1", "ep_len[0] = -1"]),
         ("liar.npz", &["array 'rew'", "more than compression can produce"]),
+        ("big_header.npz", &["array 'rew'", "a header of 600000000 bytes"]),
     ];
     for (name, words) in cases {
         let file = dir.path().join(name);
