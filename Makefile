@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench lint fmt tools-venv clean-deps
+.PHONY: setup run test bench lint fmt tools-venv clean-deps python test-python test-sb3
 
 setup:
 	@bash scripts/setup.sh
@@ -18,6 +18,7 @@ test: setup
 	$(CARGO) test --release --workspace --all-targets
 	# --all-targets leaves out doc tests: the crates' README examples are compiled and run here.
 	$(CARGO) test --release --workspace --doc
+	$(MAKE) --no-print-directory test-python
 
 bench: setup
 	$(CARGO) bench --workspace
@@ -33,6 +34,21 @@ fmt:
 # Stable-Baselines3 and dtaidistance comparisons). Not needed for `make test`.
 tools-venv: setup
 	@bash scripts/tools-venv.sh
+
+# The Python package defender-rl (README, "Python"): the wheel built by maturin from
+# crates/defender-py and python/, installed into .deps/venv with python/requirements-test.txt.
+python: setup
+	@bash scripts/python.sh
+
+# The Python tests (part of `make test`). pytest exits non-zero (5) when it collects no test.
+test-python: python
+	.deps/venv/bin/python -m pytest python/tests -q -p no:cacheprovider
+
+# Opt-in: Stable-Baselines3 + PyTorch from PyPI (a multi-GB install): SAC with and without
+# DEFENDER on InvertedDoublePendulum-v5, and the DefenderCallback.
+test-sb3: python
+	.deps/venv/bin/python -m pip install --quiet --disable-pip-version-check -r python/requirements-sb3.txt
+	.deps/venv/bin/python -m pytest python/tests_sb3 -q -p no:cacheprovider
 
 clean-deps:
 	rm -rf .deps

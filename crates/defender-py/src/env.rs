@@ -1,0 +1,479 @@
+//! The Gymnasium wrapper's core: a [`DefenderEnv`] over [`PyEnv`], a `defender_rl::Env` whose
+//! `reset` and `step` call the wrapped Python environment. So every decision, cost, `R_task`,
+//! prediction, outcome and counter comes from `DefenderEnv`, the code `defender train` runs; the
+//! Python `DefenderWrapper` only forwards to it.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use defender::{DefenderConfig, DefenderEnv, DynamicsConfig, Mode, Strategy};
+use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
+use numpy::PyArray1;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::arrays::read_vec_f64;
+use crate::episodes::episode_set_arg;
+use crate::{DefenderError, defender_err, env_err, guard};
+
+/// The wrapped Python environment as a `defender_rl::Env`. What `DefenderEnv` cannot carry (the
+/// user's action object, `reset`'s options, the environment's own observation object and `info`,
+/// an exception it raised) passes through the slots below.
+struct PyEnv {
+    env: Py<PyAny>,
+    id: String,
+    observation_space: BoxSpace,
+    action_space: BoxSpace,
+    /// The action object to pass to `env.step` (so the environment sees the caller's own array).
+    action: Option<Py<PyAny>>,
+    /// `options` for the next `env.reset`.
+    options: Option<Py<PyAny>>,
+    /// What the environment returned last: its observation object and its `info`.
+    out_obs: Option<Py<PyAny>>,
+    out_info: Option<Py<PyAny>>,
+    /// An exception raised by the environment (or by reading what it returned), re-raised as is.
+    error: Option<PyErr>,
+}
+
+const RAISED: &str = "the wrapped Python environment raised";
+
+impl PyEnv {
+    fn fail(&mut self, e: PyErr) -> EnvError {
+        self.error = Some(e);
+        EnvError::Simulator(RAISED.into())
+    }
+
+    fn read_obs(&self, obs: &Bound<'_, PyAny>, method: &str) -> PyResult<Vec<f64>> {
+        let mut v = Vec::with_capacity(self.observation_space.dim());
+        read_vec_f64(
+            obs,
+            &format!(
+                "the observation returned by the wrapped environment's {method}() (its observation_space)"
+            ),
+            self.observation_space.dim(),
+            &mut v,
+        )?;
+        // DefenderEnv would skip a non-finite observation (as an unstable simulator step) and the
+        // agent would get it unexplained: a Python environment returning one has a bug to fix.
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(DefenderError::new_err(format!(
+                "the wrapped environment's {method}() returned an observation whose element {i} is not finite ({})",
+                v[i]
+            )));
+        }
+        Ok(v)
+    }
+}
+
+impl Env for PyEnv {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn observation_space(&self) -> &BoxSpace {
+        &self.observation_space
+    }
+
+    fn action_space(&self) -> &BoxSpace {
+        &self.action_space
+    }
+
+    fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
+        let result = Python::attach(|py| -> PyResult<Vec<f64>> {
+            let kwargs = PyDict::new(py);
+            kwargs.set_item("seed", seed)?;
+            kwargs.set_item("options", self.options.take())?;
+            let out = self.env.bind(py).call_method("reset", (), Some(&kwargs))?;
+            let (obs, info): (Bound<'_, PyAny>, Bound<'_, PyAny>) = out.extract().map_err(|_| {
+                PyTypeError::new_err("the wrapped environment's reset() must return a tuple (obs, info)")
+            })?;
+            let v = self.read_obs(&obs, "reset")?;
+            self.out_obs = Some(obs.unbind());
+            self.out_info = Some(info.unbind());
+            Ok(v)
+        });
+        result.map_err(|e| self.fail(e))
+    }
+
+    fn step(&mut self, action: &[f64]) -> defender_rl::Result<Step> {
+        let result = Python::attach(|py| -> PyResult<Step> {
+            let act = match self.action.take() {
+                Some(a) => a.into_bound(py),
+                None => PyArray1::from_slice(py, action).into_any(),
+            };
+            let out = self.env.bind(py).call_method1("step", (act,))?;
+            let tuple = out.cast::<PyTuple>().ok().filter(|t| t.len() == 5).ok_or_else(|| {
+                PyTypeError::new_err(
+                    "the wrapped environment's step() must return a tuple (obs, reward, terminated, truncated, info)",
+                )
+            })?;
+            let obs = tuple.get_item(0)?;
+            let reward: f64 = tuple.get_item(1)?.extract().map_err(|_| {
+                PyTypeError::new_err(
+                    "the wrapped environment's step() returned a reward that is not a number",
+                )
+            })?;
+            let terminated = tuple.get_item(2)?.is_truthy()?;
+            let truncated = tuple.get_item(3)?.is_truthy()?;
+            let v = self.read_obs(&obs, "step")?;
+            self.out_obs = Some(obs.unbind());
+            self.out_info = Some(tuple.get_item(4)?.unbind());
+            Ok(Step { obs: v, reward, terminated, truncated, info: StepInfo::default() })
+        });
+        result.map_err(|e| self.fail(e))
+    }
+}
+
+/// A Box space's bounds read from Python arrays.
+fn box_space(
+    py: Python<'_>,
+    low: &Bound<'_, PyAny>,
+    high: &Bound<'_, PyAny>,
+    what: &str,
+) -> PyResult<BoxSpace> {
+    let np = py.import("numpy")?;
+    let flat = |a: &Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
+        np.call_method1("asarray", (a, np.getattr("float64")?))?
+            .call_method0("ravel")?
+            .call_method0("tolist")?
+            .extract()
+    };
+    BoxSpace::new(flat(low)?, flat(high)?).map_err(|e| DefenderError::new_err(format!("{what}: {e}")))
+}
+
+fn parse_strategy(s: &str) -> PyResult<Strategy> {
+    s.parse::<Strategy>().map_err(|e| DefenderError::new_err(format!("strategy: {e}")))
+}
+
+pub(crate) fn parse_mode(s: &str) -> PyResult<Mode> {
+    s.parse::<Mode>().map_err(|e| DefenderError::new_err(format!("mode: {e}")))
+}
+
+fn outcome_name(o: Outcome) -> &'static str {
+    o.as_str()
+}
+
+struct State {
+    env: DefenderEnv<PyEnv>,
+    act: Vec<f64>,
+    closed: bool,
+}
+
+/// The Rust core of `defender_rl.DefenderWrapper` (use the wrapper; this class has no
+/// Gymnasium interface of its own).
+#[pyclass(module = "defender_rl._core")]
+pub struct Core {
+    state: Mutex<State>,
+    /// dtype of the observation space (a prediction is returned in it).
+    obs_dtype: Py<PyAny>,
+    obs_dim: usize,
+}
+
+impl Core {
+    fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, State>> {
+        let state = self.state.lock().map_err(|_| {
+            PyRuntimeError::new_err("DefenderWrapper: an earlier call failed inside Rust; make a new wrapper")
+        })?;
+        if state.closed {
+            return Err(PyRuntimeError::new_err(
+                "DefenderWrapper is closed (close() was called): make a new one to keep using DEFENDER",
+            ));
+        }
+        Ok(state)
+    }
+}
+
+fn take_error(state: &mut State, e: EnvError) -> PyErr {
+    match state.env.inner_mut().error.take() {
+        Some(py_err) => py_err,
+        None => env_err(e),
+    }
+}
+
+#[pymethods]
+impl Core {
+    /// `env`: the Python environment; `obs_low`/`obs_high`/`act_low`/`act_high`: its Box bounds;
+    /// `dynamics`: a JSON object of `DynamicsConfig` fields.
+    #[new]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed))]
+    #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
+    fn new(
+        py: Python<'_>,
+        env: Py<PyAny>,
+        env_id: Option<String>,
+        obs_low: &Bound<'_, PyAny>,
+        obs_high: &Bound<'_, PyAny>,
+        obs_dtype: Py<PyAny>,
+        act_low: &Bound<'_, PyAny>,
+        act_high: &Bound<'_, PyAny>,
+        demos: &Bound<'_, PyAny>,
+        strategy: &str,
+        mode: &str,
+        num_demos: Option<usize>,
+        r_task: Option<f64>,
+        dynamics_json: Option<String>,
+        seed: Option<u64>,
+    ) -> PyResult<Self> {
+        guard("DefenderWrapper()", || {
+            let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
+            let action_space = box_space(py, act_low, act_high, "action_space")?;
+            let demos = episode_set_arg(demos, "demos")?;
+            let strategy = parse_strategy(strategy)?;
+            let mode = parse_mode(mode)?;
+            let dynamics: DynamicsConfig = match dynamics_json {
+                Some(text) => serde_json::from_str(&text)
+                    .map_err(|e| DefenderError::new_err(format!("dynamics: {e}")))?,
+                None => DynamicsConfig::default(),
+            };
+            if r_task.is_some_and(|r| !r.is_finite()) {
+                return Err(DefenderError::new_err(format!(
+                    "r_task must be a finite number, got {r_task:?}"
+                )));
+            }
+            // Without a Gymnasium id (an environment made without gymnasium.make), the
+            // demonstrations' id stands in: only dimensions are checked then.
+            let id = env_id.or_else(|| demos.meta().env_id.clone()).unwrap_or_else(|| "<python env>".into());
+            let obs_dim = observation_space.dim();
+            let inner = PyEnv {
+                env,
+                id,
+                observation_space,
+                action_space,
+                action: None,
+                options: None,
+                out_obs: None,
+                out_info: None,
+                error: None,
+            };
+            let config =
+                DefenderConfig { strategy, mode, num_demos, r_task, dynamics, ..DefenderConfig::default() };
+            let mut rng = match seed {
+                Some(s) => ChaCha8Rng::seed_from_u64(s),
+                None => ChaCha8Rng::from_rng(&mut rand::rng()),
+            };
+            let env = DefenderEnv::new(inner, &demos, config, &mut rng).map_err(|e| {
+                DefenderError::new_err(format!(
+                    "DefenderWrapper: demonstrations {}: {e}",
+                    demos.source().display()
+                ))
+            })?;
+            // The model's GEMMs run on the calling thread unless DEFENDER_NN_THREADS asks for
+            // more: rayon's global pool does not survive fork(), and vector environments fork
+            // (gymnasium's AsyncVectorEnv by default) after the parent may have used it. Results
+            // are bit-identical either way.
+            let parallelism = if std::env::var_os("DEFENDER_NN_THREADS").is_some() {
+                defender_nn::Parallelism::default()
+            } else {
+                defender_nn::Parallelism::Sequential
+            };
+            env.dynamics().map_err(defender_err)?.set_parallelism(parallelism);
+            let act_dim = env.action_space().dim();
+            Ok(Self {
+                state: Mutex::new(State { env, act: Vec::with_capacity(act_dim), closed: false }),
+                obs_dtype,
+                obs_dim,
+            })
+        })
+    }
+
+    /// `env.reset(seed=seed, options=options)` through `DefenderEnv::reset`: `(obs, info)`.
+    #[pyo3(signature = (seed=None, options=None))]
+    fn reset<'py>(
+        &self,
+        py: Python<'py>,
+        seed: Option<&Bound<'py, PyAny>>,
+        options: Option<Py<PyAny>>,
+    ) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+        let seed: Option<u64> = match seed.filter(|s| !s.is_none()) {
+            None => None,
+            Some(s) => Some(s.extract().map_err(|_| {
+                PyValueError::new_err(format!(
+                    "reset(seed=...): expected a non-negative integer below 2**64, got {s}"
+                ))
+            })?),
+        };
+        let mut state = self.lock()?;
+        guard("DefenderWrapper.reset", || {
+            state.env.inner_mut().options = options;
+            match state.env.reset(seed) {
+                Ok(_) => {
+                    let inner = state.env.inner_mut();
+                    let obs = inner.out_obs.take().unwrap_or_else(|| py.None());
+                    let info = match inner.out_info.take() {
+                        Some(i) => i,
+                        None => PyDict::new(py).into_any().unbind(),
+                    };
+                    Ok((obs, info))
+                }
+                Err(e) => Err(take_error(&mut state, e)),
+            }
+        })
+    }
+
+    /// One step through `DefenderEnv::step`: `(obs, reward, terminated, truncated, info)`.
+    fn step<'py>(&self, py: Python<'py>, action: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyTuple>> {
+        let mut guard_state = self.lock()?;
+        guard("DefenderWrapper.step", || {
+            let state = &mut *guard_state;
+            let act_dim = state.env.action_space().dim();
+            read_vec_f64(action, "DefenderWrapper.step(action) (the action_space)", act_dim, &mut state.act)?;
+            state.env.inner_mut().action = Some(action.clone().unbind());
+            let result = state.env.step(&state.act);
+            state.env.inner_mut().action = None;
+            let step = match result {
+                Ok(step) => step,
+                Err(e) => return Err(take_error(state, e)),
+            };
+            let decision = state.env.last_decision();
+            let filtered = step.info.filtered;
+            let done = step.done();
+            let inner = state.env.inner_mut();
+            let (obs, info) = if filtered {
+                let pred = PyArray1::from_vec(py, step.obs).into_any();
+                let pred = pred.call_method1("astype", (self.obs_dtype.bind(py),))?;
+                (pred, PyDict::new(py))
+            } else {
+                let obs = inner
+                    .out_obs
+                    .take()
+                    .map(|o| o.into_bound(py))
+                    .unwrap_or_else(|| py.None().into_bound(py));
+                let info = match inner.out_info.take().map(|i| i.into_bound(py)) {
+                    Some(i) => match i.cast::<PyDict>() {
+                        Ok(d) => d.copy()?,
+                        Err(_) => PyDict::new(py),
+                    },
+                    None => PyDict::new(py),
+                };
+                (obs, info)
+            };
+            info.set_item("defender_filtered", filtered)?;
+            if let Some(d) = decision {
+                info.set_item("defender_safe_cost", d.safe_cost)?;
+                info.set_item("defender_unsafe_cost", d.unsafe_cost)?;
+            }
+            if done && let Some(o) = state.env.last_outcome() {
+                info.set_item("defender_outcome", outcome_name(o))?;
+            }
+            PyTuple::new(
+                py,
+                [
+                    obs,
+                    step.reward.into_pyobject(py)?.into_any(),
+                    pyo3::types::PyBool::new(py, step.terminated).to_owned().into_any(),
+                    pyo3::types::PyBool::new(py, step.truncated).to_owned().into_any(),
+                    info.into_any(),
+                ],
+            )
+        })
+    }
+
+    /// Counters since construction (as `DefenderStats`).
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.lock()?.env.stats();
+        let d = PyDict::new(py);
+        for (k, v) in [
+            ("steps", s.steps),
+            ("filtered_steps", s.filtered_steps),
+            ("real_steps", s.real_steps),
+            ("episodes", s.episodes),
+            ("filtered_episodes", s.filtered_episodes),
+            ("crashed_episodes", s.crashed_episodes),
+            ("truncated_episodes", s.truncated_episodes),
+        ] {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
+
+    /// The last step's decision: `(filtered, safe_cost, unsafe_cost)`, or None.
+    fn last_decision(&self) -> PyResult<Option<(bool, f64, f64)>> {
+        Ok(self.lock()?.env.last_decision().map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
+    }
+
+    /// How the last finished episode ended: `crashed`, `filtered`, `truncated`, or None.
+    fn last_outcome(&self) -> PyResult<Option<&'static str>> {
+        Ok(self.lock()?.env.last_outcome().map(outcome_name))
+    }
+
+    /// The reward of a filtered step, as used.
+    fn r_task(&self) -> PyResult<f64> {
+        Ok(self.lock()?.env.r_task())
+    }
+
+    /// The strategy and mode in use, as strings.
+    fn config(&self) -> PyResult<(String, String, Option<usize>)> {
+        let s = self.lock()?;
+        let c = s.env.config();
+        Ok((c.strategy.to_string(), c.mode.to_string(), c.num_demos))
+    }
+
+    /// The dynamics model's counters and prediction error (a dict).
+    fn dynamics_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let state = self.lock()?;
+        let model = state.env.dynamics().map_err(defender_err)?;
+        let err = model.prediction_error();
+        let d = PyDict::new(py);
+        d.set_item("real_steps", model.real_steps())?;
+        d.set_item("gradient_steps", model.gradient_steps())?;
+        d.set_item("buffer_len", model.buffer_len())?;
+        d.set_item("last_loss", model.last_loss())?;
+        d.set_item("prediction_error_count", err.count)?;
+        d.set_item("prediction_error_last", err.last)?;
+        d.set_item("prediction_error_ema", err.ema)?;
+        d.set_item("prediction_error_mean", err.mean)?;
+        Ok(d)
+    }
+
+    /// The dynamics model's prediction of the next observation (does not train it).
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        obs: &Bound<'py, PyAny>,
+        action: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let state = self.lock()?;
+        let act_dim = state.env.action_space().dim();
+        let (mut o, mut a) = (Vec::new(), Vec::new());
+        read_vec_f64(obs, "predict(obs)", self.obs_dim, &mut o)?;
+        read_vec_f64(action, "predict(action)", act_dim, &mut a)?;
+        let out = guard("DefenderWrapper.predict", || {
+            let mut model = state.env.dynamics().map_err(defender_err)?;
+            model.predict(&o, &a).map_err(defender_err)
+        })?;
+        Ok(PyArray1::from_vec(py, out).into_any())
+    }
+
+    /// Writes the dynamics model and the counters into the folder `path` (made if missing; it
+    /// must be empty). Call between episodes, e.g. beside an agent's checkpoint.
+    fn save_state(&self, path: PathBuf) -> PyResult<()> {
+        let state = self.lock()?;
+        guard("DefenderWrapper.save_state", || {
+            if path.exists() && std::fs::read_dir(&path).map(|mut d| d.next().is_some()).unwrap_or(true) {
+                return Err(DefenderError::new_err(format!(
+                    "save_state: {} exists and is not an empty folder (choose a new one)",
+                    path.display()
+                )));
+            }
+            std::fs::create_dir_all(&path)
+                .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))?;
+            state.env.save_state(&path).map_err(env_err)
+        })
+    }
+
+    /// Restores what `save_state` wrote; the next call must be `reset()`.
+    fn load_state(&self, path: PathBuf) -> PyResult<()> {
+        let mut state = self.lock()?;
+        guard("DefenderWrapper.load_state", || state.env.load_state(&path).map_err(env_err))
+    }
+
+    /// Stops the dynamics model's thread (if any) and refuses further calls.
+    fn close(&self) {
+        if let Ok(mut s) = self.state.lock() {
+            s.closed = true;
+        }
+    }
+}

@@ -1,0 +1,129 @@
+"""Recording demonstrations as the paper does (and as ``defender demos collect`` does).
+
+The procedure: train an agent and, after every training episode once it has started learning,
+record one episode of its current (deterministic) policy on a separate copy of the environment.
+Every recorded episode is a candidate: unsafe if the environment terminated it before the
+horizon (it crashed), safe otherwise. Once both groups have enough candidates, N of each are
+taken at evenly spaced positions of their candidate lists (first and last included), so that the
+unsafe group spans the whole run, from the falls of a barely trained policy to the rare falls of
+a good one (docs/decisions.md explains what went wrong otherwise).
+
+:class:`DemoRecorder` does the recording and the selection for any policy callable on any
+Gymnasium environment; ``defender_rl.sb3.DemoCollectorCallback`` drives it from an SB3 agent's
+training loop, and :func:`collect_demos` from a loop of your own.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import gymnasium as gym
+import numpy as np
+
+from ._core import DefenderError, EpisodeSet, derive_seed
+
+
+def spread(items: list[int], n: int) -> list[int]:
+    """``n`` items at evenly spaced positions, first and last included (as the Rust ``spread``)."""
+    if n == 1:
+        return [items[-1]]
+    return [items[(k * (len(items) - 1) + (n - 1) // 2) // (n - 1)] for k in range(n)]
+
+
+class DemoRecorder:
+    """Records episodes of a policy as demonstration candidates and picks the demonstrations.
+
+    Args:
+        env: the environment to record on (a separate copy from the one the agent trains on), or
+            a Gymnasium id for ``gymnasium.make``.
+        seed: the demonstration after training episode ``k`` resets with
+            ``derive_seed(seed, "demonstration", k)``, as ``defender demos collect`` does.
+        max_steps: a cap on the length of one recorded episode (the environment's own time limit
+            applies first).
+    """
+
+    def __init__(self, env: gym.Env | str, *, seed: int = 0, max_steps: int = 100_000):
+        self.env = gym.make(env) if isinstance(env, str) else env
+        self.seed = int(seed)
+        self.max_steps = int(max_steps)
+        self.env_id = self.env.spec.id if self.env.spec is not None else None
+        self.candidates: list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]] = []
+        self.sources: list[int] = []
+
+    def record(self, policy: Callable[[np.ndarray], Any], after_episode: int | None = None) -> bool:
+        """Runs one episode of ``policy(obs) -> action`` and keeps it as a candidate. Returns
+        whether it crashed (the environment terminated it)."""
+        k = len(self.sources) if after_episode is None else int(after_episode)
+        obs, _ = self.env.reset(seed=derive_seed(self.seed, "demonstration", k))
+        observations, actions, rewards = [np.asarray(obs, dtype=np.float64)], [], []
+        crashed = False
+        for _ in range(self.max_steps):
+            action = np.asarray(policy(obs), dtype=np.float64)
+            obs, reward, terminated, truncated, _ = self.env.step(action)
+            observations.append(np.asarray(obs, dtype=np.float64))
+            actions.append(action)
+            rewards.append(float(reward))
+            if terminated or truncated:
+                crashed = bool(terminated)  # SPEC section 6
+                break
+        self.candidates.append((np.stack(observations), np.stack(actions), np.asarray(rewards), crashed))
+        self.sources.append(k)
+        return crashed
+
+    @property
+    def group_sizes(self) -> tuple[int, int]:
+        """``(safe, unsafe)`` candidates so far."""
+        unsafe = sum(c[3] for c in self.candidates)
+        return len(self.candidates) - unsafe, unsafe
+
+    def enough(self, n_safe: int, n_unsafe: int) -> bool:
+        safe, unsafe = self.group_sizes
+        return safe >= n_safe and unsafe >= n_unsafe
+
+    def select(self, n_safe: int, n_unsafe: int, *, provenance: str | None = None) -> EpisodeSet:
+        """``n_safe`` safe and ``n_unsafe`` unsafe demonstrations at evenly spaced positions of
+        the candidates, in the order they were recorded."""
+        safe, unsafe = self.group_sizes
+        if safe < n_safe or unsafe < n_unsafe or n_safe < 1 or n_unsafe < 1:
+            raise DefenderError(
+                f"select: {safe} safe and {unsafe} unsafe candidates, asked for {n_safe} and {n_unsafe} "
+                "(at least 1 of each): record more episodes or ask for fewer"
+            )
+        by_group = lambda c: [i for i, e in enumerate(self.candidates) if e[3] == c]  # noqa: E731
+        chosen = sorted(spread(by_group(False), n_safe) + spread(by_group(True), n_unsafe))
+        meta = {
+            "provenance": provenance
+            or f"defender_rl.DemoRecorder (seed {self.seed}): one episode of the policy after each "
+            f"training episode ({len(self.candidates)} candidates)",
+            "selection": "per group, evenly spaced positions (first and last included) among the candidates in order",
+            "source_training_episodes": [self.sources[i] for i in chosen],
+        }
+        return EpisodeSet.from_episodes([self.candidates[i] for i in chosen], env_id=self.env_id, meta=meta)
+
+
+def collect_demos(
+    env: gym.Env | str,
+    policy: Callable[[np.ndarray], Any],
+    n_safe: int,
+    n_unsafe: int,
+    *,
+    train: Callable[[int], None] | None = None,
+    max_episodes: int = 10_000,
+    seed: int = 0,
+) -> EpisodeSet:
+    """The paper's procedure around a training loop of your own: for ``k = 0, 1, ...`` call
+    ``train(k)`` (run one training episode of your agent; None for a fixed policy), then record
+    one episode of ``policy``; stop once both groups have enough candidates and select
+    ``n_safe`` + ``n_unsafe`` demonstrations (see :class:`DemoRecorder`)."""
+    recorder = DemoRecorder(env, seed=seed)
+    for k in range(max_episodes):
+        if train is not None:
+            train(k)
+        recorder.record(policy, after_episode=k)
+        if recorder.enough(n_safe, n_unsafe):
+            return recorder.select(n_safe, n_unsafe)
+    safe, unsafe = recorder.group_sizes
+    raise DefenderError(
+        f"collect_demos: after {max_episodes} episodes only {safe} safe and {unsafe} unsafe candidates "
+        f"(asked {n_safe} and {n_unsafe}); raise max_episodes or ask for fewer"
+    )

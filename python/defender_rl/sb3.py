@@ -1,0 +1,88 @@
+"""Stable-Baselines3 integration (``pip install defender-rl[sb3]``).
+
+* :class:`DefenderCallback` logs DEFENDER's crash and filter rates through SB3's logger (so
+  TensorBoard and the console see them) from the ``info`` keys of :class:`DefenderWrapper`,
+  whatever the vector environment (``DummyVecEnv`` or ``SubprocVecEnv``).
+* :class:`DemoCollectorCallback` records demonstrations as the paper does while SB3 trains.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from stable_baselines3.common.callbacks import BaseCallback
+
+from .demos import DemoRecorder
+
+
+class DefenderCallback(BaseCallback):
+    """Logs, under ``defender/``: ``crash_rate`` and ``filter_rate`` (cumulative fractions of
+    finished training episodes that crashed / that DEFENDER ended), ``crashes`` and
+    ``filtered_episodes`` (counts), ``episodes``, ``crash_rate_recent`` /
+    ``filter_rate_recent`` (over the last ``window`` episodes), and ``filtered_step_rate``
+    (fraction of steps filtered)."""
+
+    def __init__(self, window: int = 100, verbose: int = 0):
+        super().__init__(verbose)
+        self.window = window
+        self.recent: deque[str] = deque(maxlen=window)
+        self.counts = {"crashed": 0, "filtered": 0, "truncated": 0}
+        self.steps = 0
+        self.filtered_steps = 0
+
+    def _on_step(self) -> bool:
+        for info in self.locals.get("infos", ()):
+            self.steps += 1
+            if info.get("defender_filtered"):
+                self.filtered_steps += 1
+            outcome = info.get("defender_outcome")
+            if outcome is not None:
+                self.counts[outcome] += 1
+                self.recent.append(outcome)
+                self._record()
+        return True
+
+    def _record(self) -> None:
+        episodes = sum(self.counts.values())
+        log = self.logger.record
+        log("defender/episodes", episodes)
+        log("defender/crashes", self.counts["crashed"])
+        log("defender/filtered_episodes", self.counts["filtered"])
+        log("defender/crash_rate", self.counts["crashed"] / episodes)
+        log("defender/filter_rate", self.counts["filtered"] / episodes)
+        n = len(self.recent)
+        log("defender/crash_rate_recent", sum(o == "crashed" for o in self.recent) / n)
+        log("defender/filter_rate_recent", sum(o == "filtered" for o in self.recent) / n)
+        log("defender/filtered_step_rate", self.filtered_steps / max(self.steps, 1))
+
+    @property
+    def crash_rate(self) -> float:
+        episodes = sum(self.counts.values())
+        return self.counts["crashed"] / episodes if episodes else 0.0
+
+
+class DemoCollectorCallback(BaseCallback):
+    """Records demonstrations while an SB3 agent trains, as ``defender demos collect``: after
+    every training episode that ends past ``learning_starts`` steps, one episode of the
+    deterministic policy (``model.predict(obs, deterministic=True)``) on ``recorder``'s own
+    environment. Training stops once both groups have ``n_safe`` / ``n_unsafe`` candidates; then
+    ``recorder.select(n_safe, n_unsafe)`` gives the demonstrations. Use one training env."""
+
+    def __init__(self, recorder: DemoRecorder, n_safe: int, n_unsafe: int, learning_starts: int | None = None):
+        super().__init__(0)
+        self.recorder = recorder
+        self.n_safe, self.n_unsafe = n_safe, n_unsafe
+        self.learning_starts = learning_starts
+        self.episodes = 0
+
+    def _policy(self, obs):
+        return self.model.predict(obs, deterministic=True)[0]
+
+    def _on_step(self) -> bool:
+        starts = self.learning_starts if self.learning_starts is not None else getattr(self.model, "learning_starts", 0)
+        for done in self.locals.get("dones", ()):
+            if done:
+                if self.num_timesteps > starts:
+                    self.recorder.record(self._policy, after_episode=self.episodes)
+                self.episodes += 1
+        return not self.recorder.enough(self.n_safe, self.n_unsafe)

@@ -1,0 +1,199 @@
+"""`DefenderWrapper`: DEFENDER as a Gymnasium wrapper (SPEC sections 4-6)."""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Mapping, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+from ._core import Core, DefenderError, EpisodeSet
+
+#: The keys :class:`DefenderWrapper` adds to every step's ``info`` (flat scalars, so that SB3's
+#: ``Monitor(info_keywords=...)`` and vector environments carry them).
+INFO_KEYS = ("defender_filtered", "defender_safe_cost", "defender_unsafe_cost", "defender_outcome")
+
+
+def _check_box(space: gym.Space, what: str) -> gym.spaces.Box:
+    if not isinstance(space, gym.spaces.Box):
+        raise TypeError(
+            f"DefenderWrapper needs a gymnasium.spaces.Box {what}, got {type(space).__name__} "
+            f"({space}); flatten or rescale the environment first (e.g. gymnasium.wrappers.FlattenObservation)"
+        )
+    if len(space.shape) != 1:
+        raise TypeError(
+            f"DefenderWrapper needs a 1-D Box {what}, got shape {space.shape}; "
+            "flatten it first (gymnasium.wrappers.FlattenObservation)"
+        )
+    if not np.issubdtype(space.dtype, np.floating):
+        raise TypeError(f"DefenderWrapper needs a floating-point Box {what}, got dtype {space.dtype}")
+    return space
+
+
+class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Wraps a Gymnasium environment with DEFENDER.
+
+    At every step the trajectory element (``s_t``, or ``concat(s_t, a_t)`` with
+    ``mode="state-action"``) goes to the online filter:
+
+    * executed (``Safe(tau) < Unsafe(tau)``): the wrapped environment steps as usual, and the
+      dynamics model learns from the real transition;
+    * filtered: the wrapped environment is **not** stepped; the step returns the dynamics
+      model's prediction as the observation, reward ``R_task``, ``terminated=True``.
+
+    ``info`` gets ``defender_filtered`` (bool), ``defender_safe_cost`` and
+    ``defender_unsafe_cost`` (floats) on every step and, on the last step of an episode,
+    ``defender_outcome``: ``"crashed"`` (the environment terminated it), ``"filtered"`` (DEFENDER
+    ended it) or ``"truncated"`` (the time limit).
+
+    The decision, costs, prediction, outcome and counters are computed by the Rust
+    ``DefenderEnv`` (the code ``defender train`` runs), not re-implemented here.
+
+    Args:
+        env: any environment with 1-D floating-point ``Box`` observation and action spaces.
+        demos: the demonstrations: a path to an ``.npz`` episode set, an :class:`EpisodeSet`, or a
+            dict of its arrays (``obs``, ``act``, ``rew``, ``ep_len``, ``crashed``, ``meta``).
+            Crashed episodes are the unsafe group, the others the safe group.
+        strategy: ``"SAFE/UNSAFE"``, each an aggregation (``Min``, ``Max``, ``Mean``) followed by
+            a window (``Both``, ``Equal``, ``TrajW5``, ``DemoW5``, ``BothW5``, ``TrajW10``,
+            ``DemoW10``, ``BothW10``); see :func:`defender_rl.strategies`.
+        mode: ``"state"`` or ``"state-action"``.
+        num_demos: use the first N demonstrations of each group (all by default).
+        r_task: the reward of a filtered step; default: the lowest per-step reward of the
+            demonstrations used.
+        dynamics: dynamics-model settings (keys of ``DynamicsConfig``: ``hidden``,
+            ``learning_rate``, ``batch_size``, ``buffer_size``, ``learning_starts``,
+            ``train_freq``, ``gradient_steps``, ``error_ema_alpha``, ``background``). With
+            ``background=True`` the model trains on a Rust thread of its own, with the same
+            result, while Python (e.g. PyTorch) works.
+        seed: seeds the dynamics model's weights and sampling (``ChaCha8Rng::seed_from_u64``);
+            random when None.
+
+    The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
+    ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        demos: str | os.PathLike | EpisodeSet | Mapping[str, Any],
+        strategy: str = "MeanDemoW5/MeanDemoW10",
+        *,
+        mode: str = "state",
+        num_demos: int | None = None,
+        r_task: float | None = None,
+        dynamics: Mapping[str, Any] | None = None,
+        seed: int | None = None,
+    ):
+        if not isinstance(env, gym.Env):
+            raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
+        gym.utils.RecordConstructorArgs.__init__(
+            self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
+            dynamics=dynamics, seed=seed,
+        )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
+        gym.Wrapper.__init__(self, env)
+        obs_space = _check_box(env.observation_space, "observation space")
+        act_space = _check_box(env.action_space, "action space")
+        if not np.all(np.isfinite(act_space.low)) or not np.all(np.isfinite(act_space.high)):
+            raise TypeError(f"DefenderWrapper needs a bounded action space, got {act_space}")
+        if not isinstance(strategy, str):
+            raise TypeError(f"strategy must be a string such as 'MeanDemoW5/MeanDemoW10', got {strategy!r}")
+        if not isinstance(mode, str):
+            raise TypeError(f"mode must be 'state' or 'state-action', got {mode!r}")
+        if num_demos is not None and (not isinstance(num_demos, (int, np.integer)) or num_demos < 1):
+            raise DefenderError(f"num_demos must be a positive integer or None, got {num_demos!r}")
+        if r_task is not None:
+            try:
+                r_task = float(r_task)
+            except (TypeError, ValueError):
+                raise TypeError(f"r_task must be a number or None, got {r_task!r}") from None
+        if seed is not None and (not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64):
+            raise DefenderError(f"seed must be an integer in [0, 2**64) or None, got {seed!r}")
+        dynamics_json = None
+        if dynamics is not None:
+            if not isinstance(dynamics, Mapping):
+                raise TypeError(f"dynamics must be a dict of DynamicsConfig fields, got {type(dynamics).__name__}")
+            dynamics_json = json.dumps(dict(dynamics))
+        if isinstance(demos, (str, os.PathLike)):
+            demos = os.fspath(demos)
+        env_id = env.spec.id if env.spec is not None else None
+        self._core = Core(
+            env,
+            env_id,
+            obs_space.low,
+            obs_space.high,
+            obs_space.dtype,
+            act_space.low,
+            act_space.high,
+            demos,
+            strategy,
+            mode,
+            None if num_demos is None else int(num_demos),
+            r_task,
+            dynamics_json,
+            None if seed is None else int(seed),
+        )
+
+    # -- Gymnasium API ------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        return self._core.reset(seed, options)
+
+    def step(self, action) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        return self._core.step(action)
+
+    def close(self):
+        self._core.close()
+        super().close()
+
+    # -- DEFENDER -----------------------------------------------------------------------------
+
+    @property
+    def defender_stats(self) -> dict[str, int]:
+        """Counters since construction: ``steps``, ``filtered_steps``, ``real_steps``,
+        ``episodes``, ``filtered_episodes``, ``crashed_episodes``, ``truncated_episodes``."""
+        return self._core.stats()
+
+    @property
+    def last_decision(self) -> tuple[bool, float, float] | None:
+        """The last step's ``(filtered, safe_cost, unsafe_cost)``."""
+        return self._core.last_decision()
+
+    @property
+    def last_outcome(self) -> str | None:
+        """How the last finished episode ended: ``crashed``, ``filtered`` or ``truncated``."""
+        return self._core.last_outcome()
+
+    @property
+    def r_task(self) -> float:
+        """The reward of a filtered step, as used."""
+        return self._core.r_task()
+
+    @property
+    def strategy(self) -> str:
+        return self._core.config()[0]
+
+    @property
+    def mode(self) -> str:
+        return self._core.config()[1]
+
+    @property
+    def dynamics_info(self) -> dict[str, float]:
+        """The dynamics model's counters and its prediction error on fresh transitions."""
+        return self._core.dynamics_info()
+
+    def predict(self, obs, action) -> np.ndarray:
+        """The dynamics model's prediction of the next observation (float64; it does not learn)."""
+        return self._core.predict(obs, action)
+
+    def save_state(self, path: str | os.PathLike) -> None:
+        """Writes the dynamics model (weights, optimiser, transitions, RNG) and the counters into
+        the folder ``path`` (made if missing; it must be empty). Call it between episodes, e.g.
+        beside an agent's checkpoint; :meth:`load_state` restores them."""
+        self._core.save_state(os.fspath(path))
+
+    def load_state(self, path: str | os.PathLike) -> None:
+        """Restores what :meth:`save_state` wrote; call :meth:`reset` next."""
+        self._core.load_state(os.fspath(path))
