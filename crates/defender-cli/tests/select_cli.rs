@@ -198,9 +198,34 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     )
     .unwrap();
     let run2 = dir.path().join("run2");
-    ok(&["train", "--config", s(&file), "--out", s(&run2)]);
+    let recorded = dir.path().join("rec.npz");
+    ok(&["train", "--config", s(&file), "--out", s(&run2), "--record-episodes", s(&recorded)]);
     let config3: toml::Value =
         toml::from_str(&std::fs::read_to_string(run2.join("config.toml")).unwrap()).unwrap();
     assert_eq!(config3["defender"]["strategy"].as_str(), Some(best.as_str()));
     assert_eq!(config3["defender"]["selection"]["chosen_by"].as_str(), Some("auto"));
+
+    // The recorded episodes of that run give the ablation score its column.
+    let with_episodes = dir.path().join("sel_ep.csv");
+    let out = ok(&[
+        "select",
+        "--demos",
+        s(&demos),
+        "--num-demos",
+        "3",
+        "--no-equal",
+        "--episodes",
+        s(&recorded),
+        "--out",
+        s(&with_episodes),
+    ]);
+    assert!(String::from_utf8(out.stdout).unwrap().contains("recorded episodes"));
+    let text = std::fs::read_to_string(&with_episodes).unwrap();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (demo, ablation, score): (f64, f64, f64) =
+            (f[10].parse().unwrap(), f[11].parse().unwrap(), f[12].parse().unwrap());
+        assert!((0.0..=1.0).contains(&ablation), "{line}");
+        assert_eq!(score, demo * ablation, "{line}");
+    }
 }
