@@ -648,7 +648,8 @@ mod tests {
     #[ignore = "the long fuzzing budgets of docs/benchmarks.md; minutes per target"]
     fn fuzz_long() {
         let which = std::env::var("DEFENDER_FUZZ_TARGET").unwrap_or_default();
-        let targets: [(&str, fn(Budget) -> Report); 5] = [
+        type Target = fn(Budget) -> Report;
+        let targets: [(&str, Target); 5] = [
             ("episode_set", episode_set),
             ("npy_arrays", npy_arrays),
             ("config", config),
