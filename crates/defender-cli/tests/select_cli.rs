@@ -184,6 +184,11 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     assert_eq!(summary["strategy"].as_str(), Some(best.as_str()));
     assert_eq!(summary["selection"]["chosen_by"].as_str(), Some("auto"));
     assert_eq!(summary["selection"]["crash_prevention_rate"].as_f64(), Some(cp));
+    let report = String::from_utf8(ok(&["report", s(&run)]).stdout).unwrap();
+    assert!(
+        report.contains("seed 1: strategy chosen by --strategy auto (held-out demonstrations:"),
+        "{report}"
+    );
     let run_loaded = defender_report::Run::load(&run).unwrap();
     let selection = run_loaded.summary.selection.unwrap();
     assert_eq!((selection.false_alarm_rate, selection.crash_prevention_rate), (fa, cp));

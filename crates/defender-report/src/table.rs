@@ -132,6 +132,20 @@ impl Table {
                     list.join(", ")
                 ));
             }
+            // Runs whose strategy `--strategy auto` chose say so, with the choice's scores.
+            for run in &group {
+                if let Some(s) = &run.summary.selection {
+                    table.notes.push(format!(
+                        "{} seed {}: strategy chosen by --strategy {} (held-out demonstrations: {:.0}% \
+                         false alarms, {:.0}% of crashes prevented).",
+                        row.label(),
+                        run.config.seed,
+                        s.chosen_by,
+                        100.0 * s.false_alarm_rate,
+                        100.0 * s.crash_prevention_rate
+                    ));
+                }
+            }
             table.rows.push(row);
         }
         table
