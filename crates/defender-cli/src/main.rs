@@ -10,6 +10,7 @@ mod run_dir;
 mod setup;
 mod signals;
 mod sweep;
+mod update_log;
 
 use clap::{Parser, Subcommand};
 
@@ -45,6 +46,11 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    // Library warnings (MuJoCo's instability warnings among them) reach the user on stderr;
+    // RUST_LOG=info (or e.g. mujoco=debug) shows more.
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(true).try_init();
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
         Command::Report(args) => commands::report::run(args),

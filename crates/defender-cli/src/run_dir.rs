@@ -14,6 +14,8 @@ use defender_report::{
 use defender_rl::{EpisodeRecord, EvalRecord};
 use serde::Serialize;
 
+use crate::update_log::{UPDATES_FILE, UPDATES_HEADER};
+
 /// Formats one `metrics.csv` row.
 pub fn metrics_row(r: &EpisodeRecord) -> String {
     format!(
@@ -37,18 +39,29 @@ pub struct RunDir {
     root: PathBuf,
     metrics: File,
     eval: File,
+    updates: File,
 }
 
 impl RunDir {
     /// Creates `root` (if needed) and starts `metrics.csv` and `eval.csv` with the rows already
-    /// known (none for a new run; the checkpoint's for a resumed one).
-    pub fn create(root: &Path, episodes: &[EpisodeRecord], evals: &[EvalRecord]) -> Result<Self> {
+    /// known (none for a new run; the checkpoint's for a resumed one); `updates.csv` keeps its
+    /// rows up to the checkpoint's `total_steps` (those after it are trained again).
+    pub fn create(root: &Path, episodes: &[EpisodeRecord], evals: &[EvalRecord], total_steps: u64) -> Result<Self> {
         std::fs::create_dir_all(root)
             .with_context(|| format!("cannot create run directory {}", root.display()))?;
         let metrics =
             Self::start_csv(&root.join(METRICS_FILE), METRICS_HEADER, episodes.iter().map(metrics_row))?;
         let eval = Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(eval_row))?;
-        Ok(Self { root: root.to_path_buf(), metrics, eval })
+        let updates_path = root.join(UPDATES_FILE);
+        let kept: Vec<String> = std::fs::read_to_string(&updates_path)
+            .unwrap_or_default()
+            .lines()
+            .skip(1)
+            .filter(|l| l.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= total_steps))
+            .map(str::to_string)
+            .collect();
+        let updates = Self::start_csv(&updates_path, UPDATES_HEADER, kept.into_iter())?;
+        Ok(Self { root: root.to_path_buf(), metrics, eval, updates })
     }
 
     fn start_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<File> {
@@ -72,6 +85,13 @@ impl RunDir {
         writeln!(self.metrics, "{}", metrics_row(record))
             .and_then(|()| self.metrics.flush())
             .with_context(|| format!("cannot append to {}", self.root.join(METRICS_FILE).display()))
+    }
+
+    /// Appends a row to `updates.csv`.
+    pub fn append_updates(&mut self, row: &str) -> Result<()> {
+        writeln!(self.updates, "{row}")
+            .and_then(|()| self.updates.flush())
+            .with_context(|| format!("cannot append to {}", self.root.join(UPDATES_FILE).display()))
     }
 
     /// Appends an evaluation to `eval.csv`.

@@ -65,6 +65,9 @@ fn same_results(a: &Path, b: &Path) {
     assert_eq!(ma, mb, "metrics.csv differs");
     let eval = |d: &Path| std::fs::read_to_string(d.join("eval.csv")).unwrap();
     assert_eq!(eval(a), eval(b), "eval.csv differs");
+    let updates = |d: &Path| std::fs::read_to_string(d.join("updates.csv")).unwrap();
+    assert!(updates(a).lines().count() > 2, "updates.csv has no rows:\n{}", updates(a));
+    assert_eq!(updates(a), updates(b), "updates.csv differs");
     assert!(actor(a) == actor(b), "the final actors differ");
 }
 
@@ -80,10 +83,13 @@ fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
 
-/// A DEFENDER run long enough to be interrupted several times (SAC updates from step 100).
+/// A DEFENDER run long enough to be interrupted several times, learning from step 300 on (so
+/// that the networks, the optimisers and `updates.csv` change as it goes).
 fn run_args(out: &Path) -> Vec<String> {
+    let config = out.with_extension("sac.toml");
+    std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\n")).unwrap();
     [
-        "train", "--env", ENV_ID, "--strategy", "MinDemoW5/MinDemoW10", "--steps", "2500", "--eval-freq", "1000",
+        "train", "--config", s(&config), "--strategy", "MinDemoW5/MinDemoW10", "--steps", "2500", "--eval-freq", "1000",
         "--checkpoint-every", "40", "--seed", "3", "--out", s(out),
     ]
     .map(String::from)

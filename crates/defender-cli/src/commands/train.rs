@@ -15,6 +15,7 @@ use crate::progress;
 use crate::resume;
 use crate::run_dir::{self, RunDir};
 use crate::signals::{StopRequest, Stopped};
+use crate::update_log::{self, UpdateLog};
 use crate::setup::{self, DefenderSection, TrainingRecorder};
 
 /// Arguments of `defender train`.
@@ -392,6 +393,7 @@ struct TrainHooks {
     filtered: u64,
     episodes: u64,
     recorder: Option<TrainingRecorder>,
+    updates: UpdateLog,
     error: Option<anyhow::Error>,
 }
 
@@ -408,7 +410,7 @@ impl TrainHooks {
             Budget::Episodes(e) => (e, "episodes", false),
         };
         Ok(Self {
-            run_dir: RunDir::create(out, &[], &[])?,
+            run_dir: RunDir::create(out, &[], &[], 0)?,
             config: config.clone(),
             bar: progress::bar(total, unit),
             by_steps,
@@ -417,13 +419,14 @@ impl TrainHooks {
             filtered: 0,
             episodes: 0,
             recorder,
+            updates: UpdateLog::default(),
             error: None,
         })
     }
 
     /// After a resume: the files restart from the checkpoint's records.
     fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
-        self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals)?;
+        self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals, steps)?;
         for r in episodes {
             self.count(r);
         }
@@ -475,6 +478,15 @@ impl TrainHooks {
 }
 
 impl Hooks for TrainHooks {
+    fn on_update(&mut self, total_steps: u64, stats: &defender_rl::UpdateStats) {
+        if let Some(row) = self.updates.add(total_steps, stats)
+            && self.error.is_none()
+        {
+            // Hooks of a step cannot fail; the error stops the run at the episode's end.
+            self.error = self.run_dir.append_updates(&row).err();
+        }
+    }
+
     fn on_step(&mut self, total_steps: u64) {
         if self.by_steps {
             self.bar.set_position(total_steps);
@@ -520,6 +532,9 @@ impl Hooks for TrainHooks {
         let pinned = toml::to_string_pretty(&self.config).map_err(anyhow::Error::from)?;
         defender_io::write_bytes(&dir.join(resume::PINNED_CONFIG_FILE), pinned.as_bytes())
             .map_err(|(path, e)| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+        let updates = serde_json::to_vec(&self.updates).map_err(anyhow::Error::from)?;
+        defender_io::write_bytes(&dir.join(update_log::CHECKPOINT_FILE), &updates)
+            .map_err(|(path, e)| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
         if let Some(recorder) = &self.recorder {
             recorder.save_checkpoint(dir)?;
         }
@@ -528,6 +543,12 @@ impl Hooks for TrainHooks {
 
     fn on_resume(&mut self, dir: &Path) -> Result<(), HookError> {
         resume::check_pinned(dir, &self.config)?;
+        let path = dir.join(update_log::CHECKPOINT_FILE);
+        if path.exists() {
+            let text = std::fs::read(&path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+            self.updates = serde_json::from_slice(&text)
+                .map_err(|e| anyhow::anyhow!("{}: not an update log: {e}", path.display()))?;
+        }
         if let Some(recorder) = &mut self.recorder {
             recorder.load_checkpoint(dir)?;
         }
