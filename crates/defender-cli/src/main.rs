@@ -50,7 +50,11 @@ fn main() -> std::process::ExitCode {
     // RUST_LOG=info (or e.g. mujoco=debug) shows more.
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(true).try_init();
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(true)
+        .try_init();
     let result = match cli.command {
         Command::Env(cmd) => commands::env::run(cmd),
         Command::Report(args) => commands::report::run(args),

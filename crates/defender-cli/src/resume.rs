@@ -36,7 +36,11 @@ fn pairs<T: serde::Serialize>(config: &T) -> Result<Vec<(String, toml::Value)>> 
 /// The settings in which `requested` differs from `saved`, as `key: saved -> requested` lines.
 /// A key `requested` leaves out is not a difference when `lenient_missing` (values the run
 /// resolved itself, such as `r_task`, are absent from what a user asks for).
-pub fn differences<T: serde::Serialize>(saved: &T, requested: &T, lenient_missing: bool) -> Result<Vec<String>> {
+pub fn differences<T: serde::Serialize>(
+    saved: &T,
+    requested: &T,
+    lenient_missing: bool,
+) -> Result<Vec<String>> {
     let saved = pairs(saved)?;
     let requested = pairs(requested)?;
     let show = |v: Option<&toml::Value>| v.map_or("(unset)".to_string(), ToString::to_string);
@@ -73,17 +77,24 @@ pub fn refuse_changes<T: serde::Serialize>(out: &Path, saved: &T, requested: &T)
 }
 
 /// Refuses a `config.toml` edited since the checkpoint was written.
-pub fn check_pinned<T: serde::Serialize + serde::de::DeserializeOwned>(checkpoint: &Path, saved: &T) -> Result<()> {
+pub fn check_pinned<T: serde::Serialize + serde::de::DeserializeOwned>(
+    checkpoint: &Path,
+    saved: &T,
+) -> Result<()> {
     let path = checkpoint.join(PINNED_CONFIG_FILE);
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            eprintln!("warning: {} has no pinned configuration (an older checkpoint); config.toml is trusted", checkpoint.display());
+            eprintln!(
+                "warning: {} has no pinned configuration (an older checkpoint); config.toml is trusted",
+                checkpoint.display()
+            );
             return Ok(());
         }
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
     };
-    let pinned: T = toml::from_str(&text).with_context(|| format!("{}: not a run configuration", path.display()))?;
+    let pinned: T =
+        toml::from_str(&text).with_context(|| format!("{}: not a run configuration", path.display()))?;
     let diffs = differences(&pinned, saved, false)?;
     if !diffs.is_empty() {
         bail!(

@@ -46,7 +46,12 @@ impl RunDir {
     /// Creates `root` (if needed) and starts `metrics.csv` and `eval.csv` with the rows already
     /// known (none for a new run; the checkpoint's for a resumed one); `updates.csv` keeps its
     /// rows up to the checkpoint's `total_steps` (those after it are trained again).
-    pub fn create(root: &Path, episodes: &[EpisodeRecord], evals: &[EvalRecord], total_steps: u64) -> Result<Self> {
+    pub fn create(
+        root: &Path,
+        episodes: &[EpisodeRecord],
+        evals: &[EvalRecord],
+        total_steps: u64,
+    ) -> Result<Self> {
         std::fs::create_dir_all(root)
             .with_context(|| format!("cannot create run directory {}", root.display()))?;
         let metrics =
@@ -57,7 +62,9 @@ impl RunDir {
             .unwrap_or_default()
             .lines()
             .skip(1)
-            .filter(|l| l.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= total_steps))
+            .filter(|l| {
+                l.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= total_steps)
+            })
             .map(str::to_string)
             .collect();
         let updates = Self::start_csv(&updates_path, UPDATES_HEADER, kept.into_iter())?;
@@ -147,7 +154,8 @@ pub fn claim(out: &Path) -> Result<defender_io::DirLock> {
 /// writable), so that a long run does not lose its result at the very end.
 pub fn check_writable(path: &Path) -> Result<()> {
     let probe = defender_io::tmp_sibling(path, ".probe");
-    std::fs::File::create(&probe).with_context(|| format!("cannot write {} (checked before starting)", path.display()))?;
+    std::fs::File::create(&probe)
+        .with_context(|| format!("cannot write {} (checked before starting)", path.display()))?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
 }

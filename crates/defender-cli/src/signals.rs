@@ -23,7 +23,8 @@ impl StopRequest {
     /// Installs the handlers for SIGINT, SIGTERM and SIGHUP: the first one of them sets the
     /// request, a second one exits at once with `128 + signal`.
     pub fn install() -> Result<Self> {
-        let request = Self { signal: Arc::new(AtomicUsize::new(0)), requested: Arc::new(AtomicBool::new(false)) };
+        let request =
+            Self { signal: Arc::new(AtomicUsize::new(0)), requested: Arc::new(AtomicBool::new(false)) };
         for sig in STOP_SIGNALS {
             // Order matters: the conditional shutdown sees the flag set by an earlier signal.
             signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&request.requested))

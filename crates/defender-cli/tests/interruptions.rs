@@ -87,10 +87,24 @@ fn summary(dir: &Path) -> serde_json::Value {
 /// that the networks, the optimisers and `updates.csv` change as it goes).
 fn run_args(out: &Path) -> Vec<String> {
     let config = out.with_extension("sac.toml");
-    std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\n")).unwrap();
+    std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\n"))
+        .unwrap();
     [
-        "train", "--config", s(&config), "--strategy", "MinDemoW5/MinDemoW10", "--steps", "2500", "--eval-freq", "1000",
-        "--checkpoint-every", "40", "--seed", "3", "--out", s(out),
+        "train",
+        "--config",
+        s(&config),
+        "--strategy",
+        "MinDemoW5/MinDemoW10",
+        "--steps",
+        "2500",
+        "--eval-freq",
+        "1000",
+        "--checkpoint-every",
+        "40",
+        "--seed",
+        "3",
+        "--out",
+        s(out),
     ]
     .map(String::from)
     .to_vec()
@@ -139,7 +153,11 @@ fn a_run_killed_and_resumed_many_times_ends_as_the_run_left_alone() {
     let mut kills = 0;
     let mut first = true;
     for round in 0..8 {
-        let args = if first { run_args(&out) } else { ["train", "--out", s(&out), "--resume"].map(String::from).to_vec() };
+        let args = if first {
+            run_args(&out)
+        } else {
+            ["train", "--out", s(&out), "--resume"].map(String::from).to_vec()
+        };
         first = false;
         let mut child = spawn(&args_ref(&args));
         std::thread::sleep(Duration::from_millis(300 + next() % 1500));
@@ -199,12 +217,16 @@ fn stopped_run(root: &Path, name: &str, demos: Option<&Path>) -> PathBuf {
 fn resume_refuses_what_it_cannot_honour() {
     let root = tempfile::tempdir().unwrap();
     let demos = root.path().join("demos.npz");
-    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos").join(format!("{ENV_ID}.npz"));
+    let shipped =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos").join(format!("{ENV_ID}.npz"));
     std::fs::copy(&shipped, &demos).unwrap();
     let out = stopped_run(root.path(), "run", Some(&demos));
     let o = s(&out);
     // Flags that would change the run.
-    refused(&["train", "--out", o, "--resume", "--strategy", "MeanDemoW5/MeanDemoW10"], &["defender.strategy", "MinDemoW5/MinDemoW10"]);
+    refused(
+        &["train", "--out", o, "--resume", "--strategy", "MeanDemoW5/MeanDemoW10"],
+        &["defender.strategy", "MinDemoW5/MinDemoW10"],
+    );
     refused(&["train", "--out", o, "--resume", "--seed", "4"], &["seed: 3 -> 4"]);
     refused(&["train", "--out", o, "--resume", "--env", "Hopper-v5"], &["env:"]);
     // Flags that repeat the run's own settings are fine; a smaller budget is not.
@@ -264,19 +286,44 @@ fn foreign_directories_and_unwritable_outputs_are_refused_before_any_work() {
     let foreign = root.path().join("mine");
     std::fs::create_dir(&foreign).unwrap();
     std::fs::write(foreign.join("metrics.csv"), "my own data\n").unwrap();
-    refused(&["train", "--env", ENV_ID, "--steps", "200", "--out", s(&foreign)], &["not a run directory", "metrics.csv"]);
+    refused(
+        &["train", "--env", ENV_ID, "--steps", "200", "--out", s(&foreign)],
+        &["not a run directory", "metrics.csv"],
+    );
     assert_eq!(std::fs::read_to_string(foreign.join("metrics.csv")).unwrap(), "my own data\n");
 
     let out = root.path().join("rec");
     let start = Instant::now();
     refused(
-        &["train", "--env", ENV_ID, "--steps", "200000", "--record-episodes", "/no/such/dir/e.npz", "--out", s(&out)],
+        &[
+            "train",
+            "--env",
+            ENV_ID,
+            "--steps",
+            "200000",
+            "--record-episodes",
+            "/no/such/dir/e.npz",
+            "--out",
+            s(&out),
+        ],
         &["--record-episodes", "/no/such/dir/e.npz"],
     );
     assert!(start.elapsed() < Duration::from_secs(30), "refused only after training");
 
     refused(
-        &["train", "--env", ENV_ID, "--steps", "200", "--strategy", "MinDemoW5/MinDemoW10", "--r-task", "1e300", "--out", s(&root.path().join("r"))],
+        &[
+            "train",
+            "--env",
+            ENV_ID,
+            "--steps",
+            "200",
+            "--strategy",
+            "MinDemoW5/MinDemoW10",
+            "--r-task",
+            "1e300",
+            "--out",
+            s(&root.path().join("r")),
+        ],
         &["r_task", "out of range"],
     );
 }
@@ -285,11 +332,20 @@ fn foreign_directories_and_unwritable_outputs_are_refused_before_any_work() {
 fn impossible_sizes_are_errors_not_aborts() {
     let root = tempfile::tempdir().unwrap();
     for (i, (section, expect)) in
-        [("buffer_size = 1000000000000", "buffer_size"), ("net_arch = [100000000, 100000000]", "net_arch")].iter().enumerate()
+        [("buffer_size = 1000000000000", "buffer_size"), ("net_arch = [100000000, 100000000]", "net_arch")]
+            .iter()
+            .enumerate()
     {
         let config = root.path().join(format!("c{i}.toml"));
-        std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\ntotal_steps = 100\n[sac]\n{section}\n")).unwrap();
-        refused(&["train", "--config", s(&config), "--out", s(&root.path().join(format!("o{i}")))], &[expect, "invalid configuration"]);
+        std::fs::write(
+            &config,
+            format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\ntotal_steps = 100\n[sac]\n{section}\n"),
+        )
+        .unwrap();
+        refused(
+            &["train", "--config", s(&config), "--out", s(&root.path().join(format!("o{i}")))],
+            &[expect, "invalid configuration"],
+        );
     }
 }
 

@@ -23,7 +23,8 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-const RUNS: [&str; 2] = ["InvertedDoublePendulum-v5/sac-bare-s0", "InvertedDoublePendulum-v5/sac-MinDemoW5-MinDemoW10-s0"];
+const RUNS: [&str; 2] =
+    ["InvertedDoublePendulum-v5/sac-bare-s0", "InvertedDoublePendulum-v5/sac-MinDemoW5-MinDemoW10-s0"];
 
 fn metrics(dir: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();

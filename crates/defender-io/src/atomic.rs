@@ -160,7 +160,9 @@ mod tests {
     fn replaces_a_whole_directory_and_recovers_an_interrupted_swap() {
         let root = tempfile::tempdir().unwrap();
         let dir = root.path().join("checkpoint");
-        let put = |name: &'static str| move |d: &Path| std::fs::write(d.join(name), name).map_err(|e| E::from((d.into(), e)));
+        let put = |name: &'static str| {
+            move |d: &Path| std::fs::write(d.join(name), name).map_err(|e| E::from((d.into(), e)))
+        };
         replace_dir(&dir, put("a")).unwrap();
         replace_dir(&dir, put("b")).unwrap();
         assert!(!dir.join("a").exists(), "a file of the previous directory survived");

@@ -64,7 +64,10 @@ impl DirLock {
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
-                let holder = std::fs::read_to_string(&path).ok().map(|s| s.trim().to_owned()).filter(|s| !s.is_empty());
+                let holder = std::fs::read_to_string(&path)
+                    .ok()
+                    .map(|s| s.trim().to_owned())
+                    .filter(|s| !s.is_empty());
                 return Err(LockError::Busy { dir: dir.to_path_buf(), holder });
             }
             Err(TryLockError::Error(e)) => return Err(LockError::Io(path, e)),

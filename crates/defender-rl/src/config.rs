@@ -232,7 +232,8 @@ fn check_common(c: Common<'_>) -> Result<(), RlError> {
     let hidden_weights = net_arch
         .windows(2)
         .try_fold(0usize, |sum, w| w[0].checked_mul(w[1]).and_then(|n| sum.checked_add(n)));
-    if net_arch.iter().any(|&w| w > MAX_LAYER_WIDTH) || hidden_weights.is_none_or(|n| n > MAX_HIDDEN_WEIGHTS) {
+    if net_arch.iter().any(|&w| w > MAX_LAYER_WIDTH) || hidden_weights.is_none_or(|n| n > MAX_HIDDEN_WEIGHTS)
+    {
         return Err(bad(
             "net_arch",
             format!("{net_arch:?}"),

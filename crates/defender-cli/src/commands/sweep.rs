@@ -94,7 +94,12 @@ pub fn run(args: SweepArgs) -> Result<()> {
     }
     if !end.failed.is_empty() {
         let names: Vec<&str> = end.failed.iter().map(|(n, _)| n.as_str()).collect();
-        bail!("{} run(s) failed: {} (their logs are in {}/.sweep/logs)", names.len(), names.join(", "), args.out.display());
+        bail!(
+            "{} run(s) failed: {} (their logs are in {}/.sweep/logs)",
+            names.len(),
+            names.join(", "),
+            args.out.display()
+        );
     }
     Ok(())
 }

@@ -14,9 +14,9 @@ use serde::{Deserialize, Serialize};
 use crate::progress;
 use crate::resume;
 use crate::run_dir::{self, RunDir};
+use crate::setup::{self, DefenderSection, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
 use crate::update_log::{self, UpdateLog};
-use crate::setup::{self, DefenderSection, TrainingRecorder};
 
 /// Arguments of `defender train`.
 #[derive(Debug, Args)]
@@ -277,7 +277,10 @@ pub fn run(args: TrainArgs) -> Result<()> {
         resumed_config(&args)?
     } else {
         if has_checkpoint || args.out.join("summary.json").exists() {
-            bail!("{} already holds a run; use --resume to continue it, or another --out", args.out.display());
+            bail!(
+                "{} already holds a run; use --resume to continue it, or another --out",
+                args.out.display()
+            );
         }
         resolve(&args)?
     };
@@ -545,7 +548,8 @@ impl Hooks for TrainHooks {
         resume::check_pinned(dir, &self.config)?;
         let path = dir.join(update_log::CHECKPOINT_FILE);
         if path.exists() {
-            let text = std::fs::read(&path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+            let text =
+                std::fs::read(&path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
             self.updates = serde_json::from_slice(&text)
                 .map_err(|e| anyhow::anyhow!("{}: not an update log: {e}", path.display()))?;
         }

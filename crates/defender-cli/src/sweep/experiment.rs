@@ -171,7 +171,11 @@ pub fn load(path: &Path) -> Result<Experiment> {
 pub fn parse(text: &str) -> Result<Experiment> {
     let file: ExperimentFile = toml::from_str(text)?;
     let at = |s: &Spanned<String>| {
-        if s.span().is_empty() { "the default".to_string() } else { format!("line {}", line_of(text, s.span().start)) }
+        if s.span().is_empty() {
+            "the default".to_string()
+        } else {
+            format!("line {}", line_of(text, s.span().start))
+        }
     };
     let g = &file.grid;
     for (name, empty) in [
@@ -193,8 +197,10 @@ pub fn parse(text: &str) -> Result<Experiment> {
     }
     let mut algos = Vec::new();
     for a in &g.algos {
-        let algo: Algo =
-            a.get_ref().parse().map_err(|_| anyhow::anyhow!("{}: unknown algorithm '{}' (sac or td3)", at(a), a.get_ref()))?;
+        let algo: Algo = a
+            .get_ref()
+            .parse()
+            .map_err(|_| anyhow::anyhow!("{}: unknown algorithm '{}' (sac or td3)", at(a), a.get_ref()))?;
         algos.push(algo);
     }
     let mut strategies: Vec<Option<StrategyChoice>> = Vec::new();
@@ -210,7 +216,11 @@ pub fn parse(text: &str) -> Result<Experiment> {
     }
     let budget_of = |env: &str| -> Result<(u64, u64)> {
         let own = file.budget.per_env.get(env).copied().filter(|b| b.steps.is_some() || b.episodes.is_some());
-        let b = own.unwrap_or(Budget { steps: file.budget.steps, episodes: file.budget.episodes, eval_freq: None });
+        let b = own.unwrap_or(Budget {
+            steps: file.budget.steps,
+            episodes: file.budget.episodes,
+            eval_freq: None,
+        });
         match (b.steps, b.episodes) {
             (Some(s), None) if s > 0 => Ok((s, 0)),
             (None, Some(e)) if e > 0 => Ok((0, e)),
@@ -235,11 +245,14 @@ pub fn parse(text: &str) -> Result<Experiment> {
                 // A bare run has no mode or demonstrations: one per seed, whatever those lists hold.
                 let variants: Vec<(Option<defender::Mode>, Option<usize>)> = match strategy {
                     None => vec![(None, None)],
-                    Some(_) => modes.iter().flat_map(|&m| num_demos.iter().map(move |&n| (Some(m), n))).collect(),
+                    Some(_) => {
+                        modes.iter().flat_map(|&m| num_demos.iter().map(move |&n| (Some(m), n))).collect()
+                    }
                 };
                 for (mode, n) in variants {
                     for &seed in &g.seeds {
-                        let mut name = format!("{env}/{}-{}", algo.as_str(), strategy_slug(spanned.get_ref()));
+                        let mut name =
+                            format!("{env}/{}-{}", algo.as_str(), strategy_slug(spanned.get_ref()));
                         if mode == Some(defender::Mode::StateAction) {
                             name.push_str("-sa");
                         }
@@ -253,9 +266,17 @@ pub fn parse(text: &str) -> Result<Experiment> {
                                 at(spanned)
                             );
                         }
-                        let mut config =
-                            run_config(&file.run, env, algo, *strategy, mode, n, seed, (total_steps, total_episodes))
-                                .with_context(|| format!("run '{name}'"))?;
+                        let mut config = run_config(
+                            &file.run,
+                            env,
+                            algo,
+                            *strategy,
+                            mode,
+                            n,
+                            seed,
+                            (total_steps, total_episodes),
+                        )
+                        .with_context(|| format!("run '{name}'"))?;
                         if let Some(f) = file.budget.per_env.get(env).and_then(|b| b.eval_freq) {
                             config.eval_freq = f;
                         }

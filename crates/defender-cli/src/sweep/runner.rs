@@ -97,7 +97,8 @@ fn log_tail(path: &Path) -> String {
 fn spawn(binary: &Path, root: &Path, run: &PlannedRun, state: RunState) -> Result<Running> {
     let sweep = root.join(SWEEP_DIR);
     let config_path = sweep.join("configs").join(format!("{}.toml", flat(&run.name)));
-    let text = toml::to_string_pretty(&run.config_in(root)).context("cannot serialise a run configuration")?;
+    let text =
+        toml::to_string_pretty(&run.config_in(root)).context("cannot serialise a run configuration")?;
     defender_io::write_bytes(&config_path, text.as_bytes())
         .map_err(|(p, e)| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
     let log_path = sweep.join("logs").join(format!("{}.log", flat(&run.name)));
@@ -205,7 +206,9 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
                             });
                         }
                         _ if r.signalled => {
-                            bar.suspend(|| eprintln!("stopped {} (resumes when the sweep is started again)", r.name));
+                            bar.suspend(|| {
+                                eprintln!("stopped {} (resumes when the sweep is started again)", r.name)
+                            });
                         }
                         _ => {
                             let tail = log_tail(&log);
@@ -226,8 +229,14 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
             })
             .collect();
         bar.set_message(names.join(", "));
-        if !std::io::IsTerminal::is_terminal(&std::io::stderr()) && last_report.elapsed() > Duration::from_secs(60) {
-            eprintln!("sweep: {}/{total} complete; running: {}", end.completed + end.skipped, names.join(", "));
+        if !std::io::IsTerminal::is_terminal(&std::io::stderr())
+            && last_report.elapsed() > Duration::from_secs(60)
+        {
+            eprintln!(
+                "sweep: {}/{total} complete; running: {}",
+                end.completed + end.skipped,
+                names.join(", ")
+            );
             last_report = Instant::now();
         }
         std::thread::sleep(Duration::from_millis(200));
