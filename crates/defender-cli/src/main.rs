@@ -45,6 +45,12 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    // Output piped into `head` or `less` ends quietly when the reader closes the pipe, as for
+    // any Unix tool, instead of a panic from `println!` (Rust ignores SIGPIPE by default).
+    // SAFETY: restoring a signal's default disposition before any thread is started.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     // Library warnings (MuJoCo's instability warnings among them) reach the user on stderr;
     // RUST_LOG=info (or e.g. mujoco=debug) shows more.

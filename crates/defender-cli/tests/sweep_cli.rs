@@ -86,6 +86,23 @@ fn a_sweep_stopped_by_sigterm_and_started_again_equals_one_left_alone() {
     let report = defender(&["report", s(&stopped)]);
     assert!(report.status.success(), "{}", text(&report));
     assert!(text(&report).contains("MinDemoW5"), "{}", text(&report));
+
+    // Another experiment may share complete runs when it asks for the same configuration ...
+    let smoke_text = std::fs::read_to_string(smoke()).unwrap();
+    let subset = root.path().join("subset.toml");
+    std::fs::write(&subset, smoke_text.replace(r#"["none", "MinDemoW5/MinDemoW10"]"#, r#"["none"]"#)).unwrap();
+    let shared = defender(&["sweep", s(&subset), "--out", s(&stopped)]);
+    assert!(text(&shared).contains("1 complete, 0 to run"), "{}", text(&shared));
+    // ... but an edited experiment is not reported from runs made under the old one: refused
+    // before anything runs, naming the run and the setting.
+    let edited = root.path().join("edited.toml");
+    std::fs::write(&edited, smoke_text.replace("steps = 1500", "steps = 1600")).unwrap();
+    let refused = defender(&["sweep", s(&edited), "--out", s(&stopped)]);
+    assert!(!refused.status.success(), "{}", text(&refused));
+    let message = text(&refused);
+    assert!(message.contains("sac-bare-s0") && message.contains("total_steps: 1500 -> 1600"), "{message}");
+    let listed = text(&defender(&["sweep", s(&edited), "--out", s(&stopped), "--list"]));
+    assert_eq!(listed.matches("changed").count(), 2, "{listed}");
 }
 
 #[test]
@@ -110,4 +127,21 @@ fn bad_experiment_files_are_refused_before_anything_runs() {
         }
         assert!(!out_dir.exists(), "a refused experiment created its output");
     }
+}
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly() {
+    // `defender sweep --list | head -1`: the reader is gone before the listing is written.
+    let root = tempfile::tempdir().unwrap();
+    let table1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/table1.toml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_defender"))
+        .args(["sweep", s(&table1), "--out", s(root.path()), "--list"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
 }

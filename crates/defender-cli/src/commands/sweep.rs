@@ -7,7 +7,7 @@ use clap::Args;
 
 use crate::signals::{StopRequest, Stopped};
 use crate::sweep::experiment;
-use crate::sweep::runner::{self, state_of};
+use crate::sweep::runner::{self, RunState, state_of};
 
 /// Arguments of `defender sweep`.
 #[derive(Debug, Args)]
@@ -17,7 +17,8 @@ use crate::sweep::runner::{self, state_of};
   defender report results/table1 --plots results/table1/plots             (the tables, over seeds)
 
 Every run is an ordinary run directory, <out>/<task>/<algo>-<strategy>-s<seed>. Started again,
-the sweep skips complete runs and resumes stopped ones from their checkpoint. Ctrl-C or SIGTERM
+the sweep skips complete runs (refusing any made with another configuration than the file asks
+for) and resumes stopped ones from their checkpoint. Ctrl-C or SIGTERM
 stops every run at its next episode end with a checkpoint (exit code 130/143); nothing is lost.
 Each run uses one core (one network thread): --jobs N runs N at a time [default: the cores].
 The experiment format is in docs/experiments.md.")]
@@ -44,17 +45,25 @@ pub fn run(args: SweepArgs) -> Result<()> {
     if args.list {
         for run in &experiment.runs {
             let dir = args.out.join(&run.name);
-            let state = state_of(&dir);
+            let state = match state_of(&dir) {
+                // A complete run made with another configuration is not this experiment's run.
+                RunState::Complete
+                    if !crate::sweep::complete::differences(&dir, &run.config_in(&args.out))?.is_empty() =>
+                {
+                    "changed"
+                }
+                state => state.as_str(),
+            };
             if args.json {
                 let line = serde_json::json!({
                     "name": run.name,
                     "dir": dir,
-                    "state": state.as_str(),
+                    "state": state,
                     "config": toml::to_string(&run.config_in(&args.out))?,
                 });
                 println!("{line}");
             } else {
-                println!("{:8} {}", state.as_str(), run.name);
+                println!("{state:8} {}", run.name);
             }
         }
         return Ok(());
@@ -66,6 +75,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let stop = StopRequest::install()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let _lock = defender_io::DirLock::try_acquire(&args.out)?;
+    crate::sweep::complete::check(&args.out, &experiment.runs)?;
     if !experiment.description.is_empty() {
         eprintln!("{}", experiment.description);
     }
