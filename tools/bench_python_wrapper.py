@@ -12,12 +12,15 @@
    and resets are frequent: both are in the figures.
 2. With ``--sb3 STEPS`` (needs stable-baselines3 + torch: python/requirements-sb3.txt): SB3 SAC on
    Hopper-v5 bare, with DEFENDER (model trained inline) and with DEFENDER training its model on
-   its own thread (``dynamics={"background": True}``), one after the other in this process, each
-   for STEPS steps; % Time = wall time / the bare run's.
+   its own thread (``dynamics={"background": True}``), side by side in this process: the three
+   take turns of ``--sb3-chunk`` steps until each has taken STEPS, so that a changing load weighs
+   on all of them alike; % Time = wall time / the bare run's. The dynamics model trains on SPEC
+   section 5's schedule (one gradient step per real step).
 
 Run (after `make python`):
     .deps/venv/bin/python tools/bench_python_wrapper.py                 # 1 only
     .deps/venv/bin/python tools/bench_python_wrapper.py --sb3 5000      # 1 and 2
+    .deps/venv/bin/python tools/bench_python_wrapper.py --skip-wrapper --sb3 5000   # 2 only
 """
 
 from __future__ import annotations
@@ -92,22 +95,40 @@ def wrapper_cost(env_id: str, demos: EpisodeSet, strategy: str, steps: int, seed
     }
 
 
-def sb3_runs(env_id: str, demos: EpisodeSet, strategy: str, steps: int, seed: int) -> list[tuple[str, float, dict]]:
+def sb3_runs(env_id: str, demos: EpisodeSet, strategy: str, steps: int, seed: int, chunk: int) -> list[tuple[str, float, dict]]:
+    """SB3 SAC bare, with DEFENDER (model inline) and with DEFENDER's model on its own thread,
+    side by side: the three agents take turns, `chunk` steps each (``learn(...,
+    reset_num_timesteps=False)``), so a load that changes during the run weighs on all three
+    alike; each one's wall time is the sum of its turns. All three use SB3's defaults
+    (``learning_starts=100``: every later step is an env step plus one gradient step)."""
     import torch
     from stable_baselines3 import SAC
 
-    out = []
+    runs = []
     for label, dynamics in [("bare", None), ("DEFENDER", {}), ("DEFENDER, model on its own thread", {"background": True})]:
         env = gym.make(env_id)
         if dynamics is not None:
             env = DefenderWrapper(env, demos, strategy, seed=seed, dynamics=dynamics)
-        model = SAC("MlpPolicy", env, seed=seed, verbose=0, device="cpu")
-        start = time.perf_counter()
-        model.learn(total_timesteps=steps)
-        seconds = time.perf_counter() - start
-        stats = env.defender_stats if dynamics is not None else {}
+        runs.append([label, env, SAC("MlpPolicy", env, seed=seed, verbose=0, device="cpu"), 0.0, 0])
+    while any(r[4] < steps for r in runs):
+        for run in runs:
+            n = min(chunk, steps - run[4])
+            if n <= 0:
+                continue
+            start = time.perf_counter()
+            run[2].learn(total_timesteps=n, reset_num_timesteps=run[4] == 0)
+            run[3] += time.perf_counter() - start
+            run[4] += n
+        done = min(r[4] for r in runs)
+        print(f"  {done}/{steps} steps each: " + ", ".join(f"{r[0]} {r[3]:.1f} s" for r in runs)
+              + f" (load average {os.getloadavg()[0]:.2f})", flush=True)
+    out = []
+    for label, env, _, seconds, n in runs:
+        stats = env.defender_stats if isinstance(env, DefenderWrapper) else {}
+        if stats:
+            stats = {**stats, **{k: env.dynamics_info[k] for k in ("gradient_steps", "prediction_error_ema")}}
         out.append((label, seconds, stats))
-        print(f"  SB3 SAC {label}: {steps} steps in {seconds:.1f} s ({steps / seconds:.0f} steps/s) {stats}", flush=True)
+        print(f"  SB3 SAC {label}: {n} steps in {seconds:.1f} s ({n / seconds:.1f} steps/s) {stats}", flush=True)
     print(f"  torch {torch.__version__}, {torch.get_num_threads()} threads")
     return out
 
@@ -120,13 +141,16 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--sb3", type=int, default=0, metavar="STEPS", help="also time SB3 SAC bare vs with DEFENDER")
+    p.add_argument("--sb3-chunk", type=int, default=500, metavar="STEPS", help="steps per turn of the SB3 runs")
+    p.add_argument("--torch-threads", type=int, default=0, help="torch.set_num_threads (0: torch's default)")
+    p.add_argument("--skip-wrapper", action="store_true", help="only the SB3 comparison")
     args = p.parse_args()
     demos = EpisodeSet.load(ROOT / "data" / "demos" / f"{args.env}.npz")
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {platform.processor() or platform.platform()}, "
           f"load average {os.getloadavg()[0]:.2f}")
     print(f"{args.env}, {args.strategy}, {len(demos)} demonstrations, {args.steps} steps of random actions, "
           f"dynamics training excluded")
-    for background, what in [(False, "model inline"), (True, "model on its own thread")]:
+    for background, what in [] if args.skip_wrapper else [(False, "model inline"), (True, "model on its own thread")]:
         runs = []
         for r in range(args.repeats):
             res = wrapper_cost(args.env, demos, args.strategy, args.steps, args.seed + r, background)
@@ -141,7 +165,11 @@ def main() -> None:
               f"{min(r['own_cpu_us'] for r in runs):.1f} us (best; median "
               f"{np.median([r['own_cpu_us'] for r in runs]):.1f} us)")
     if args.sb3:
-        results = sb3_runs(args.env, demos, args.strategy, args.sb3, args.seed)
+        if args.torch_threads:
+            import torch
+
+            torch.set_num_threads(args.torch_threads)
+        results = sb3_runs(args.env, demos, args.strategy, args.sb3, args.seed, args.sb3_chunk)
         bare = results[0][1]
         for label, seconds, _ in results:
             print(f"  % Time {label}: {100 * seconds / bare:.1f}%")

@@ -20,7 +20,8 @@ class DefenderCallback(BaseCallback):
     finished training episodes that crashed / that DEFENDER ended), ``crashes`` and
     ``filtered_episodes`` (counts), ``episodes``, ``crash_rate_recent`` /
     ``filter_rate_recent`` (over the last ``window`` episodes), and ``filtered_step_rate``
-    (fraction of steps filtered)."""
+    (fraction of steps filtered). With ``strategy="auto"``, the strategy chosen and its scores
+    are logged once when training starts (``defender/strategy``, ``defender/selection/*``)."""
 
     def __init__(self, window: int = 100, verbose: int = 0):
         super().__init__(verbose)
@@ -29,6 +30,18 @@ class DefenderCallback(BaseCallback):
         self.counts = {"crashed": 0, "filtered": 0, "truncated": 0}
         self.steps = 0
         self.filtered_steps = 0
+
+    def _on_training_start(self) -> None:
+        try:
+            selections = self.training_env.get_attr("strategy_selection")
+        except AttributeError:  # not a DefenderWrapper underneath
+            return
+        chosen = next((s for s in selections if s is not None), None)
+        if chosen is None:
+            return
+        self.logger.record("defender/strategy", chosen["strategy"])
+        for key in ("false_alarm_rate", "crash_prevention_rate", "safe_allowed", "mean_lead", "score"):
+            self.logger.record(f"defender/selection/{key}", chosen[key])
 
     def _on_step(self) -> bool:
         for info in self.locals.get("infos", ()):

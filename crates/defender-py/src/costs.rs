@@ -6,9 +6,9 @@ use defender_dtw::Dtw;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::arrays::read_mat_f32;
-use crate::env::parse_mode;
+use crate::checks::{check_rows, parse_mode, parse_name, read_sequence, read_transitions};
 use crate::episodes::episode_set_arg;
+use crate::select::on_local_pool;
 use crate::{DefenderError, defender_err, guard};
 
 fn dtw_err(e: defender_dtw::DtwError) -> PyErr {
@@ -17,21 +17,14 @@ fn dtw_err(e: defender_dtw::DtwError) -> PyErr {
 
 /// Two sequences with the same number of columns (1-D arrays are univariate sequences).
 fn pair(x: &Bound<'_, PyAny>, y: &Bound<'_, PyAny>) -> PyResult<(Vec<f32>, Vec<f32>, usize)> {
-    let (x, xr, dim) = read_mat_f32(x, "x", None, true)?;
-    let (y, yr, ydim) = read_mat_f32(y, "y", None, true)?;
+    let (x, dim) = read_sequence(x, "x", None)?;
+    let (y, ydim) = read_sequence(y, "y", None)?;
     if dim != ydim {
         return Err(DefenderError::new_err(format!(
             "x and y must have the same number of columns (the element dimension): x has {dim}, y has {ydim}"
         )));
     }
-    if xr == 0 || yr == 0 {
-        return Err(DefenderError::new_err(format!("x and y need at least one row each, got {xr} and {yr}")));
-    }
     Ok((x, y, dim))
-}
-
-fn parse<T: std::str::FromStr<Err = defender::DefenderError>>(s: &str, what: &str) -> PyResult<T> {
-    s.parse::<T>().map_err(|e| DefenderError::new_err(format!("{what}: {e}")))
 }
 
 /// `dtw(x, y)`: the DTW cost of SPEC section 2 (Euclidean local cost, no band, f32 as the filter
@@ -54,7 +47,7 @@ pub(crate) fn window_cost(
     y: &Bound<'_, PyAny>,
     window: &str,
 ) -> PyResult<f64> {
-    let window: Window = parse(window, "window")?;
+    let window: Window = parse_name(window, "window")?;
     let (x, y, dim) = pair(x, y)?;
     guard("window_cost", || {
         py.detach(|| {
@@ -82,18 +75,15 @@ pub(crate) fn group_cost(
     group: &Bound<'_, PyList>,
     method: &str,
 ) -> PyResult<(f64, Vec<f64>)> {
-    let method: Method = parse(method, "method")?;
-    let (xv, _, dim) = read_mat_f32(x, "x", None, true)?;
-    let mut seqs = Vec::with_capacity(group.len());
-    for (i, y) in group.iter().enumerate() {
-        let (y, rows, d) = read_mat_f32(&y, &format!("group[{i}]"), Some(dim), dim == 1)?;
-        if rows == 0 {
-            return Err(DefenderError::new_err(format!("group[{i}]: an empty sequence")));
-        }
-        seqs.push((y, d));
-    }
-    if seqs.is_empty() || xv.is_empty() {
-        return Err(DefenderError::new_err("group_cost: x and group must be non-empty"));
+    let method: Method = parse_name(method, "method")?;
+    let (xv, dim) = read_sequence(x, "x", None)?;
+    let seqs = group
+        .iter()
+        .enumerate()
+        .map(|(i, y)| read_sequence(&y, &format!("group[{i}]"), Some(dim)))
+        .collect::<PyResult<Vec<_>>>()?;
+    if seqs.is_empty() {
+        return Err(DefenderError::new_err("group_cost: group must be non-empty"));
     }
     guard("group_cost", || {
         py.detach(|| -> Result<(f64, Vec<f64>), defender_dtw::DtwError> {
@@ -129,20 +119,16 @@ pub(crate) fn trajectory_costs<'py>(
     mode: &str,
     num_demos: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let strategy: Strategy = parse(strategy, "strategy")?;
+    let strategy: Strategy = parse_name(strategy, "strategy")?;
     let mode = parse_mode(mode)?;
     let mut set = episode_set_arg(demos, "demos")?;
     if let Some(n) = num_demos {
         set = set.select_demos(n).map_err(defender_err)?;
     }
-    let (o, rows, _) = read_mat_f32(obs, "obs", Some(set.obs_dim()), false)?;
-    let (a, arows, _) = read_mat_f32(act, "act", Some(set.act_dim()), false)?;
-    if rows != arows {
-        return Err(DefenderError::new_err(format!(
-            "obs and act must have one row per step: obs has {rows}, act has {arows}"
-        )));
-    }
     let (od, ad) = (set.obs_dim(), set.act_dim());
+    let t = read_transitions(obs, act, None, "", Some((od, ad)))?;
+    check_rows("act", t.act_rows, t.obs_rows, "one per row of obs: an action per step")?;
+    let (o, a, rows) = (t.obs, t.act, t.obs_rows);
     let out = guard("trajectory_costs", || {
         py.detach(|| -> defender::Result<Vec<defender::Decision>> {
             let prepared = Demonstrations::new(&set, mode, CostOptions::default())?;
@@ -175,15 +161,17 @@ pub(crate) fn ablate<'py>(
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episode_set_arg(episodes, "episodes")?;
     let list = strategies
-        .map(|l| l.iter().map(|s| parse::<Strategy>(s, "strategies")).collect::<PyResult<Vec<_>>>())
+        .map(|l| l.iter().map(|s| parse_name::<Strategy>(s, "strategies")).collect::<PyResult<Vec<_>>>())
         .transpose()?;
     if list.as_ref().is_some_and(|l| l.is_empty()) {
         return Err(DefenderError::new_err("strategies: an empty list (give None for all 576)"));
     }
     let rows = guard("ablate", || {
         py.detach(|| {
-            defender::ablate(&demos, &episodes, list.as_deref(), mode, CostOptions::default(), &|_| {})
-        })
+            on_local_pool(|| {
+                defender::ablate(&demos, &episodes, list.as_deref(), mode, CostOptions::default(), &|_| {})
+            })
+        })?
         .map_err(defender_err)
     })?;
     if as_numpy {

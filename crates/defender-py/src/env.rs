@@ -6,17 +6,21 @@
 use std::path::PathBuf;
 use std::sync::Mutex;
 
-use defender::{DefenderConfig, DefenderEnv, DynamicsConfig, Mode, Strategy};
+use defender::selection::StrategyChoice;
+use defender::{DefenderConfig, DefenderEnv, DynamicsConfig};
 use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::intern;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyTuple};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::arrays::read_vec_f64;
+use crate::checks::{parse_mode, parse_name};
 use crate::episodes::episode_set_arg;
+use crate::select::{AutoChoice, choose_auto};
 use crate::{DefenderError, defender_err, env_err, guard};
 
 /// The wrapped Python environment as a `defender_rl::Env`. What `DefenderEnv` cannot carry (the
@@ -46,25 +50,44 @@ impl PyEnv {
         EnvError::Simulator(RAISED.into())
     }
 
-    fn read_obs(&self, obs: &Bound<'_, PyAny>, method: &str) -> PyResult<Vec<f64>> {
+    fn read_obs(&self, obs: &Bound<'_, PyAny>, method: Method) -> PyResult<Vec<f64>> {
         let mut v = Vec::with_capacity(self.observation_space.dim());
-        read_vec_f64(
-            obs,
-            &format!(
-                "the observation returned by the wrapped environment's {method}() (its observation_space)"
-            ),
-            self.observation_space.dim(),
-            &mut v,
-        )?;
+        let what = match method {
+            Method::Reset => {
+                "the observation returned by the wrapped environment's reset() (its observation_space)"
+            }
+            Method::Step => {
+                "the observation returned by the wrapped environment's step() (its observation_space)"
+            }
+        };
+        read_vec_f64(obs, what, self.observation_space.dim(), &mut v)?;
         // DefenderEnv would skip a non-finite observation (as an unstable simulator step) and the
         // agent would get it unexplained: a Python environment returning one has a bug to fix.
         if let Some(i) = v.iter().position(|x| !x.is_finite()) {
             return Err(DefenderError::new_err(format!(
-                "the wrapped environment's {method}() returned an observation whose element {i} is not finite ({})",
+                "the wrapped environment's {}() returned an observation whose element {i} is not finite ({})",
+                method.name(),
                 v[i]
             )));
         }
         Ok(v)
+    }
+}
+
+/// Which method of the wrapped environment returned an observation (for error messages, built
+/// only when there is an error: the step path formats nothing).
+#[derive(Clone, Copy)]
+enum Method {
+    Reset,
+    Step,
+}
+
+impl Method {
+    fn name(self) -> &'static str {
+        match self {
+            Method::Reset => "reset",
+            Method::Step => "step",
+        }
     }
 }
 
@@ -84,13 +107,13 @@ impl Env for PyEnv {
     fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
         let result = Python::attach(|py| -> PyResult<Vec<f64>> {
             let kwargs = PyDict::new(py);
-            kwargs.set_item("seed", seed)?;
-            kwargs.set_item("options", self.options.take())?;
-            let out = self.env.bind(py).call_method("reset", (), Some(&kwargs))?;
+            kwargs.set_item(intern!(py, "seed"), seed)?;
+            kwargs.set_item(intern!(py, "options"), self.options.take())?;
+            let out = self.env.bind(py).call_method(intern!(py, "reset"), (), Some(&kwargs))?;
             let (obs, info): (Bound<'_, PyAny>, Bound<'_, PyAny>) = out.extract().map_err(|_| {
                 PyTypeError::new_err("the wrapped environment's reset() must return a tuple (obs, info)")
             })?;
-            let v = self.read_obs(&obs, "reset")?;
+            let v = self.read_obs(&obs, Method::Reset)?;
             self.out_obs = Some(obs.unbind());
             self.out_info = Some(info.unbind());
             Ok(v)
@@ -104,7 +127,7 @@ impl Env for PyEnv {
                 Some(a) => a.into_bound(py),
                 None => PyArray1::from_slice(py, action).into_any(),
             };
-            let out = self.env.bind(py).call_method1("step", (act,))?;
+            let out = self.env.bind(py).call_method1(intern!(py, "step"), (act,))?;
             let tuple = out.cast::<PyTuple>().ok().filter(|t| t.len() == 5).ok_or_else(|| {
                 PyTypeError::new_err(
                     "the wrapped environment's step() must return a tuple (obs, reward, terminated, truncated, info)",
@@ -118,7 +141,7 @@ impl Env for PyEnv {
             })?;
             let terminated = tuple.get_item(2)?.is_truthy()?;
             let truncated = tuple.get_item(3)?.is_truthy()?;
-            let v = self.read_obs(&obs, "step")?;
+            let v = self.read_obs(&obs, Method::Step)?;
             self.out_obs = Some(obs.unbind());
             self.out_info = Some(tuple.get_item(4)?.unbind());
             Ok(Step { obs: v, reward, terminated, truncated, info: StepInfo::default() })
@@ -144,14 +167,6 @@ fn box_space(
     BoxSpace::new(flat(low)?, flat(high)?).map_err(|e| DefenderError::new_err(format!("{what}: {e}")))
 }
 
-fn parse_strategy(s: &str) -> PyResult<Strategy> {
-    s.parse::<Strategy>().map_err(|e| DefenderError::new_err(format!("strategy: {e}")))
-}
-
-pub(crate) fn parse_mode(s: &str) -> PyResult<Mode> {
-    s.parse::<Mode>().map_err(|e| DefenderError::new_err(format!("mode: {e}")))
-}
-
 fn outcome_name(o: Outcome) -> &'static str {
     o.as_str()
 }
@@ -170,6 +185,8 @@ pub struct Core {
     /// dtype of the observation space (a prediction is returned in it).
     obs_dtype: Py<PyAny>,
     obs_dim: usize,
+    /// How `strategy="auto"` chose the strategy; None for a given strategy.
+    auto: Option<AutoChoice>,
 }
 
 impl Core {
@@ -221,7 +238,7 @@ impl Core {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
             let action_space = box_space(py, act_low, act_high, "action_space")?;
             let demos = episode_set_arg(demos, "demos")?;
-            let strategy = parse_strategy(strategy)?;
+            let choice: StrategyChoice = parse_name(strategy, "strategy")?;
             let mode = parse_mode(mode)?;
             let dynamics: DynamicsConfig = match dynamics_json {
                 Some(text) => serde_json::from_str(&text)
@@ -247,6 +264,15 @@ impl Core {
                 out_obs: None,
                 out_info: None,
                 error: None,
+            };
+            // strategy="auto": chosen here, from these demonstrations, as `defender train
+            // --strategy auto` chooses (docs/decisions.md).
+            let (strategy, auto) = match choice {
+                StrategyChoice::Fixed(s) => (s, None),
+                StrategyChoice::Auto => {
+                    let auto = choose_auto(py, &demos, mode, num_demos)?;
+                    (auto.best.strategy, Some(auto))
+                }
             };
             let config =
                 DefenderConfig { strategy, mode, num_demos, r_task, dynamics, ..DefenderConfig::default() };
@@ -275,6 +301,7 @@ impl Core {
                 state: Mutex::new(State { env, act: Vec::with_capacity(act_dim), closed: false }),
                 obs_dtype,
                 obs_dim,
+                auto,
             })
         })
     }
@@ -333,7 +360,7 @@ impl Core {
             let inner = state.env.inner_mut();
             let (obs, info) = if filtered {
                 let pred = PyArray1::from_vec(py, step.obs).into_any();
-                let pred = pred.call_method1("astype", (self.obs_dtype.bind(py),))?;
+                let pred = pred.call_method1(intern!(py, "astype"), (self.obs_dtype.bind(py),))?;
                 (pred, PyDict::new(py))
             } else {
                 let obs = inner
@@ -341,30 +368,32 @@ impl Core {
                     .take()
                     .map(|o| o.into_bound(py))
                     .unwrap_or_else(|| py.None().into_bound(py));
+                // The environment's own info dict gets the DEFENDER keys in place, as Gymnasium's
+                // wrappers add theirs (RecordEpisodeStatistics' "episode"): no copy per step.
                 let info = match inner.out_info.take().map(|i| i.into_bound(py)) {
-                    Some(i) => match i.cast::<PyDict>() {
-                        Ok(d) => d.copy()?,
+                    Some(i) => match i.cast_into::<PyDict>() {
+                        Ok(d) => d,
                         Err(_) => PyDict::new(py),
                     },
                     None => PyDict::new(py),
                 };
                 (obs, info)
             };
-            info.set_item("defender_filtered", filtered)?;
+            info.set_item(intern!(py, "defender_filtered"), filtered)?;
             if let Some(d) = decision {
-                info.set_item("defender_safe_cost", d.safe_cost)?;
-                info.set_item("defender_unsafe_cost", d.unsafe_cost)?;
+                info.set_item(intern!(py, "defender_safe_cost"), d.safe_cost)?;
+                info.set_item(intern!(py, "defender_unsafe_cost"), d.unsafe_cost)?;
             }
             if done && let Some(o) = state.env.last_outcome() {
-                info.set_item("defender_outcome", outcome_name(o))?;
+                info.set_item(intern!(py, "defender_outcome"), outcome_name(o))?;
             }
             PyTuple::new(
                 py,
                 [
                     obs,
-                    step.reward.into_pyobject(py)?.into_any(),
-                    pyo3::types::PyBool::new(py, step.terminated).to_owned().into_any(),
-                    pyo3::types::PyBool::new(py, step.truncated).to_owned().into_any(),
+                    PyFloat::new(py, step.reward).into_any(),
+                    PyBool::new(py, step.terminated).to_owned().into_any(),
+                    PyBool::new(py, step.truncated).to_owned().into_any(),
                     info.into_any(),
                 ],
             )
@@ -409,6 +438,11 @@ impl Core {
         let s = self.lock()?;
         let c = s.env.config();
         Ok((c.strategy.to_string(), c.mode.to_string(), c.num_demos))
+    }
+
+    /// With `strategy="auto"`: the chosen strategy and its scores (a dict); None otherwise.
+    fn selection<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.auto.as_ref().map(|a| a.to_dict(py)).transpose()
     }
 
     /// The dynamics model's counters and prediction error (a dict).

@@ -6,7 +6,8 @@ use pyo3::exceptions::{PyIndexError, PyTypeError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyType};
 
-use crate::arrays::{mat, read_1d, read_mat_f32};
+use crate::arrays::{mat, read_1d};
+use crate::checks::{Transitions, check_rows, read_transitions, required_item};
 use crate::{DefenderError, defender_err, guard};
 
 /// A set of episodes: observations (the final one of each episode included), actions, rewards,
@@ -67,12 +68,8 @@ pub(crate) fn episode_set_arg(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<de
     if let Ok(set) = obj.cast::<EpisodeSet>() {
         return Ok(set.get().inner.clone());
     }
-    if obj.is_instance_of::<PyDict>() {
-        let d = obj.cast::<PyDict>().map_err(PyErr::from)?;
-        let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-            d.get_item(k)?
-                .ok_or_else(|| DefenderError::new_err(format!("{what}: the dict has no '{k}' array")))
-        };
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let get = |k: &str| required_item(d, k, &format!("{what} (a dict of arrays)"));
         let meta = d.get_item("meta")?;
         return from_arrays_impl(
             &get("obs")?,
@@ -101,9 +98,8 @@ fn from_arrays_impl(
     crashed: &Bound<'_, PyAny>,
     meta: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<defender::EpisodeSet> {
-    let (obs, obs_rows, obs_dim) = read_mat_f32(obs, "obs", None, false)?;
-    let (act, act_rows, act_dim) = read_mat_f32(act, "act", None, false)?;
-    let rew: Vec<f32> = read_1d(rew, "rew", "float32")?;
+    let Transitions { obs, obs_rows, obs_dim, act, act_rows, act_dim, rew } =
+        read_transitions(obs, act, Some(rew), "", None)?;
     let ep_len: Vec<i64> = read_1d(ep_len, "ep_len", "int64")?;
     let crashed: Vec<bool> = read_1d(crashed, "crashed", "bool_")?;
     let meta = meta_from_py(meta)?;
@@ -122,16 +118,15 @@ fn from_arrays_impl(
     }
     let total: usize = ep_len.iter().map(|&n| n as usize).sum();
     let episodes = ep_len.len();
-    for (name, got, expected) in
-        [("obs", obs_rows, total + episodes), ("act", act_rows, total), ("rew", rew.len(), total)]
-    {
-        if got != expected {
-            return Err(DefenderError::new_err(format!(
-                "{name}: expected {expected} rows (sum(ep_len) = {total}{} over {episodes} episodes), got {got}",
-                if name == "obs" { " plus one final observation per episode" } else { "" }
-            )));
-        }
-    }
+    let unit = format!("sum(ep_len) = {total} over {episodes} episodes");
+    check_rows(
+        "obs",
+        obs_rows,
+        total + episodes,
+        &format!("{unit}, plus one final observation per episode"),
+    )?;
+    check_rows("act", act_rows, total, &unit)?;
+    check_rows("rew", rew.len(), total, &unit)?;
     check_meta_dims(&meta, obs_dim, act_dim)?;
     let mut set = defender::EpisodeSet::new(obs_dim, act_dim, meta).map_err(defender_err)?;
     let (mut o, mut a) = (0usize, 0usize);
@@ -220,29 +215,23 @@ impl EpisodeSet {
             let mut set: Option<defender::EpisodeSet> = None;
             for (i, ep) in episodes.try_iter()?.enumerate() {
                 let ep = ep?;
+                let what = format!("episode {i}");
                 let (obs, act, rew, crashed) = if let Ok(d) = ep.cast::<PyDict>() {
-                    let get = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-                        d.get_item(k)?
-                            .ok_or_else(|| DefenderError::new_err(format!("episode {i}: no '{k}' key")))
-                    };
+                    let get = |k: &str| required_item(d, k, &what);
                     (get("obs")?, get("act")?, get("rew")?, get("crashed")?)
                 } else {
                     ep.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>, Bound<'_, PyAny>, Bound<'_, PyAny>)>()
                         .map_err(|_| {
                         PyTypeError::new_err(format!(
-                            "episode {i}: expected a tuple (obs, act, rew, crashed) or a dict with those keys"
+                            "{what}: expected a tuple (obs, act, rew, crashed) or a dict with those keys"
                         ))
                     })?
                 };
-                let (o, rows, obs_dim) = read_mat_f32(&obs, &format!("episode {i} obs"), None, false)?;
-                let (a, arows, act_dim) = read_mat_f32(&act, &format!("episode {i} act"), None, false)?;
-                let r: Vec<f32> = read_1d(&rew, &format!("episode {i} rew"), "float32")?;
-                if rows != arows + 1 || r.len() != arows {
-                    return Err(DefenderError::new_err(format!(
-                        "episode {i}: expected N + 1 observations, N actions and N rewards, got {rows}, {arows} and {}",
-                        r.len()
-                    )));
-                }
+                let t = read_transitions(&obs, &act, Some(&rew), &format!("{what} "), None)?;
+                let (o, a, r, obs_dim, act_dim) = (t.obs, t.act, t.rew, t.obs_dim, t.act_dim);
+                let unit = "N + 1 observations for N actions";
+                check_rows(&format!("{what} obs"), t.obs_rows, t.act_rows + 1, unit)?;
+                check_rows(&format!("{what} rew"), r.len(), t.act_rows, "one reward per action")?;
                 if set.is_none() {
                     check_meta_dims(&meta, obs_dim, act_dim)?;
                 }

@@ -18,9 +18,11 @@ use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
 mod arrays;
+mod checks;
 mod costs;
 mod env;
 mod episodes;
+mod select;
 
 create_exception!(
     _core,
@@ -107,6 +109,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(costs::trajectory_costs, m)?)?;
     m.add_function(wrap_pyfunction!(costs::ablate, m)?)?;
     m.add_function(wrap_pyfunction!(costs::strategies, m)?)?;
+    m.add_function(wrap_pyfunction!(select::select_strategies, m)?)?;
     m.add_function(wrap_pyfunction!(derive_seed, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

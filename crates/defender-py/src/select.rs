@@ -1,0 +1,192 @@
+//! Choosing the strategy automatically (issue 14): `defender_rl.select(...)` and the wrapper's
+//! `strategy="auto"`, both by [`defender::selection::select`], the code of `defender select` and
+//! `defender train --strategy auto` (docs/decisions.md, "Choosing the strategy automatically").
+
+use std::time::Instant;
+
+use defender::selection::{Selection, SelectionConfig, StrategyScore, select};
+use defender::{EpisodeSet, Mode};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::checks::{parse_mode, parse_name};
+use crate::episodes::episode_set_arg;
+use crate::{DefenderError, defender_err, guard};
+
+/// Runs `f` on a rayon pool of its own, dropped when `f` returns, instead of rayon's global pool:
+/// the global pool does not survive `fork()`, and vector environments fork (docs/decisions.md,
+/// "The Python front").
+pub(crate) fn on_local_pool<T: Send>(f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("defender-select-{i}"))
+        .build()
+        .map_err(|e| {
+            pyo3::exceptions::PyRuntimeError::new_err(format!("cannot start worker threads: {e}"))
+        })?;
+    Ok(pool.install(f))
+}
+
+/// What `strategy="auto"` chose, and how: the fields `defender train --strategy auto` records
+/// in `config.toml` (`[defender.selection]`) and `summary.json` (`selection`).
+pub(crate) struct AutoChoice {
+    pub(crate) best: StrategyScore,
+    candidates: usize,
+    equal: bool,
+    min_lead: usize,
+    max_false_alarm: f64,
+    demos: (usize, usize),
+    seconds: f64,
+}
+
+impl AutoChoice {
+    /// The record as a dict (`DefenderWrapper.strategy_selection`).
+    pub(crate) fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let b = &self.best;
+        let d = PyDict::new(py);
+        d.set_item("strategy", b.strategy.to_string())?;
+        d.set_item("chosen_by", "auto")?;
+        d.set_item("candidates", self.candidates)?;
+        d.set_item("equal", self.equal)?;
+        d.set_item("min_lead", self.min_lead)?;
+        d.set_item("max_false_alarm", self.max_false_alarm)?;
+        d.set_item("safe_demos", self.demos.0)?;
+        d.set_item("unsafe_demos", self.demos.1)?;
+        d.set_item("false_alarm_rate", b.false_alarm_rate)?;
+        d.set_item("crash_prevention_rate", b.crash_prevention_rate)?;
+        d.set_item("safe_allowed", b.safe_allowed)?;
+        d.set_item("unsafe_allowed", b.unsafe_allowed)?;
+        d.set_item("mean_lead", b.mean_lead)?;
+        d.set_item("score", b.score)?;
+        d.set_item("seconds", self.seconds)?;
+        Ok(d)
+    }
+}
+
+/// `strategy="auto"`: the selection `defender train --strategy auto` runs (state or
+/// state-action mode and `num_demos` as the run's, without the `Equal` window, SPEC's plain DTW,
+/// the default lead time and false-alarm budget), without the GIL.
+///
+/// # Errors
+/// As [`select`]; and when no strategy is eligible (the same refusal as `defender train`).
+pub(crate) fn choose_auto(
+    py: Python<'_>,
+    demos: &EpisodeSet,
+    mode: Mode,
+    num_demos: Option<usize>,
+) -> PyResult<AutoChoice> {
+    let config = SelectionConfig { mode, num_demos, equal: false, ..SelectionConfig::default() };
+    let start = Instant::now();
+    let selection = py
+        .detach(|| on_local_pool(|| select(demos, None, &config, &|_| {})))?
+        .map_err(|e| DefenderError::new_err(format!("strategy=\"auto\": {e}")))?;
+    let Some(best) = selection.best().cloned() else {
+        return Err(DefenderError::new_err(format!(
+            "strategy=\"auto\": every strategy filters more than {}% of the held-out safe \
+             demonstrations of {} (false alarms that would stop the agent from learning); rank them \
+             with defender_rl.select(...) and give strategy=\"SAFE/UNSAFE\"",
+            100.0 * config.max_false_alarm,
+            demos.source().display()
+        )));
+    };
+    Ok(AutoChoice {
+        best,
+        candidates: selection.rows.len(),
+        equal: config.equal,
+        min_lead: config.min_lead,
+        max_false_alarm: config.max_false_alarm,
+        demos: selection.demos,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// `select(demos, episodes=None, mode="state", num_demos=None, equal=True, strategies=None,
+/// min_lead=1, max_false_alarm=0.1, as_numpy=False)`: ranks strategies for one task from its
+/// demonstrations by leave-one-out, times the ablation score on recorded `episodes` when given,
+/// as `defender select` does (same options, same rows as its `selection.csv`). The first row is
+/// the choice when its `eligible` is true. Returns a list of dicts, or with `as_numpy` a dict of
+/// arrays.
+#[pyfunction(name = "select")]
+#[pyo3(signature = (demos, episodes = None, mode = "state", num_demos = None, equal = true, strategies = None, min_lead = 1, max_false_alarm = 0.1, as_numpy = false))]
+#[allow(clippy::too_many_arguments)] // keyword arguments of one Python function, as `defender select`'s flags
+pub(crate) fn select_strategies<'py>(
+    py: Python<'py>,
+    demos: &Bound<'py, PyAny>,
+    episodes: Option<&Bound<'py, PyAny>>,
+    mode: &str,
+    num_demos: Option<usize>,
+    equal: bool,
+    strategies: Option<Vec<String>>,
+    min_lead: usize,
+    max_false_alarm: f64,
+    as_numpy: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mode = parse_mode(mode)?;
+    let demos = episode_set_arg(demos, "demos")?;
+    let episodes = episodes.filter(|e| !e.is_none()).map(|e| episode_set_arg(e, "episodes")).transpose()?;
+    let strategies = strategies
+        .map(|l| l.iter().map(|s| parse_name(s, "strategies")).collect::<PyResult<Vec<_>>>())
+        .transpose()?;
+    if strategies.as_ref().is_some_and(Vec::is_empty) {
+        return Err(DefenderError::new_err("strategies: an empty list (give None for all of them)"));
+    }
+    let config = SelectionConfig {
+        mode,
+        num_demos,
+        equal,
+        strategies,
+        min_lead,
+        max_false_alarm,
+        ..SelectionConfig::default()
+    };
+    let selection = guard("select", || {
+        py.detach(|| on_local_pool(|| select(&demos, episodes.as_ref(), &config, &|_| {})))?
+            .map_err(defender_err)
+    })?;
+    if as_numpy { numpy_rows(py, &selection) } else { dict_rows(py, &selection) }
+}
+
+fn dict_rows<'py>(py: Python<'py>, selection: &Selection) -> PyResult<Bound<'py, PyAny>> {
+    let out = PyList::empty(py);
+    for r in &selection.rows {
+        let d = PyDict::new(py);
+        d.set_item("rank", r.rank)?;
+        d.set_item("strategy", r.strategy.to_string())?;
+        d.set_item("safe", r.strategy.safe.to_string())?;
+        d.set_item("unsafe", r.strategy.unsafe_.to_string())?;
+        d.set_item("mode", r.mode.to_string())?;
+        d.set_item("false_alarm_rate", r.false_alarm_rate)?;
+        d.set_item("crash_prevention_rate", r.crash_prevention_rate)?;
+        d.set_item("safe_allowed", r.safe_allowed)?;
+        d.set_item("unsafe_allowed", r.unsafe_allowed)?;
+        d.set_item("mean_lead", r.mean_lead)?;
+        d.set_item("demo_score", r.demo_score)?;
+        d.set_item("ablation_score", r.ablation_score)?;
+        d.set_item("score", r.score)?;
+        d.set_item("eligible", r.eligible)?;
+        out.append(d)?;
+    }
+    Ok(out.into_any())
+}
+
+fn numpy_rows<'py>(py: Python<'py>, selection: &Selection) -> PyResult<Bound<'py, PyAny>> {
+    use numpy::PyArray1;
+    let rows = &selection.rows;
+    let f = |get: fn(&StrategyScore) -> f64| PyArray1::from_iter(py, rows.iter().map(get));
+    let d = PyDict::new(py);
+    d.set_item("rank", PyArray1::from_iter(py, rows.iter().map(|r| r.rank as i64)))?;
+    let names: Vec<String> = rows.iter().map(|r| r.strategy.to_string()).collect();
+    d.set_item("strategy", py.import("numpy")?.call_method1("array", (names,))?)?;
+    d.set_item("false_alarm_rate", f(|r| r.false_alarm_rate))?;
+    d.set_item("crash_prevention_rate", f(|r| r.crash_prevention_rate))?;
+    d.set_item("safe_allowed", f(|r| r.safe_allowed))?;
+    d.set_item("unsafe_allowed", f(|r| r.unsafe_allowed))?;
+    d.set_item("mean_lead", f(|r| r.mean_lead))?;
+    d.set_item("demo_score", f(|r| r.demo_score))?;
+    // NaN without recorded episodes (as the empty column of selection.csv).
+    d.set_item("ablation_score", f(|r| r.ablation_score.unwrap_or(f64::NAN)))?;
+    d.set_item("score", f(|r| r.score))?;
+    d.set_item("eligible", PyArray1::from_iter(py, rows.iter().map(|r| r.eligible)))?;
+    Ok(d.into_any())
+}
