@@ -4,6 +4,7 @@ demonstrations (data/demos/Hopper-v5.npz), or bare for comparison.
     pip install ".[sb3]" "gymnasium[mujoco]"      # or: make python && pip install -r python/requirements-sb3.txt
     python examples/sb3_sac_hopper.py --steps 20000                  # with DEFENDER
     python examples/sb3_sac_hopper.py --steps 20000 --bare           # without
+    python examples/sb3_sac_hopper.py --strategy auto                 # strategy chosen from the demonstrations
     python examples/sb3_sac_hopper.py --tensorboard runs/tb          # crash/filter rates in TensorBoard
 
 It prints the training episodes' crash rate (episodes the environment terminated: the hopper
@@ -31,7 +32,8 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="Hopper-v5")
     p.add_argument("--demos", default=None, help="default: data/demos/<ENV>.npz")
-    p.add_argument("--strategy", default="MeanDemoW5/MeanDemoW10")
+    p.add_argument("--strategy", default="MeanDemoW5/MeanDemoW10",
+                   help="SAFE/UNSAFE, or auto: chosen from the demonstrations as `defender train --strategy auto`")
     p.add_argument("--steps", type=int, default=20_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--bare", action="store_true", help="train without DEFENDER")
@@ -45,6 +47,11 @@ def main() -> None:
         demos = args.demos or ROOT / "data" / "demos" / f"{args.env}.npz"
         env = DefenderWrapper(env, demos, args.strategy, seed=args.seed,
                               dynamics={"background": args.dynamics_thread})
+        if env.strategy_selection is not None:
+            chosen = env.strategy_selection
+            print(f"strategy auto: {env.strategy} of {chosen['candidates']} strategies in {chosen['seconds']:.1f}s "
+                  f"(held-out false alarms {100 * chosen['false_alarm_rate']:.0f}%, "
+                  f"crashes prevented {100 * chosen['crash_prevention_rate']:.0f}%)")
         env = Monitor(env, info_keywords=("defender_outcome",))
     else:
         env = Monitor(env)
@@ -55,7 +62,7 @@ def main() -> None:
     seconds = time.perf_counter() - start
 
     lengths = env.get_episode_lengths()  # one per finished episode
-    label = "bare" if args.bare else f"DEFENDER {args.strategy}"
+    label = "bare" if args.bare else f"DEFENDER {env.env.strategy}"
     if args.bare:
         # Without the wrapper, a crash is an episode that ended before the time limit.
         limit = env.spec.max_episode_steps if env.spec else None
