@@ -90,7 +90,8 @@ fn a_sweep_stopped_by_sigterm_and_started_again_equals_one_left_alone() {
     // Another experiment may share complete runs when it asks for the same configuration ...
     let smoke_text = std::fs::read_to_string(smoke()).unwrap();
     let subset = root.path().join("subset.toml");
-    std::fs::write(&subset, smoke_text.replace(r#"["none", "MinDemoW5/MinDemoW10"]"#, r#"["none"]"#)).unwrap();
+    std::fs::write(&subset, smoke_text.replace(r#"["none", "MinDemoW5/MinDemoW10"]"#, r#"["none"]"#))
+        .unwrap();
     let shared = defender(&["sweep", s(&subset), "--out", s(&stopped)]);
     assert!(text(&shared).contains("1 complete, 0 to run"), "{}", text(&shared));
     // ... but an edited experiment is not reported from runs made under the old one: refused
