@@ -10,6 +10,7 @@ mod run_dir;
 mod setup;
 mod signals;
 mod sweep;
+mod text_table;
 mod update_log;
 
 use clap::{Parser, Subcommand};
