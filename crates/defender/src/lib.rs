@@ -2,6 +2,7 @@
 
 mod ablation;
 mod atomic;
+pub mod collection;
 mod defender_env;
 mod demonstrations;
 pub mod direct;
