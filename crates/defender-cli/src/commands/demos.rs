@@ -173,10 +173,8 @@ impl Collector<'_> {
         let space = self.demo_env.action_space().clone();
         loop {
             agent.act(&obs, true, &mut self.action)?;
-            for (i, (a, out)) in self.action.iter().zip(&mut self.env_action).enumerate() {
-                // [-1, 1] -> the action bounds, as the trainer does.
-                *out = space.low()[i] + (f64::from(*a) + 1.0) * 0.5 * (space.high()[i] - space.low()[i]);
-            }
+            // [-1, 1] -> the action bounds, as the trainer does.
+            space.unscale(&self.action, &mut self.env_action);
             let step = self.demo_env.step(&self.env_action)?;
             self.recorder.step(&self.env_action, step.reward, &step.obs)?;
             if step.done() {
