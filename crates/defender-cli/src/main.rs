@@ -6,6 +6,7 @@ mod commands;
 mod fuzz;
 mod progress;
 mod resume;
+mod run_config;
 mod run_dir;
 mod setup;
 mod signals;
