@@ -1,6 +1,7 @@
 //! The naive O(nm) DTW every fast path is checked against (SPEC section 2), in f64.
 #![allow(dead_code)]
 
+#[allow(unused_imports)] // each test file uses a part
 pub use defender_dtw::oracle::naive_dtw;
 
 /// `got` (f32) equals `want` up to f32 rounding along a path of up to a few thousand cells.
