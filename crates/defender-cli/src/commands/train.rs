@@ -6,10 +6,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use defender::Mode;
 use defender::selection::StrategyChoice;
-use defender_report::Summary;
+use defender_report::{OutcomeCounts, Summary};
 use defender_rl::{
-    Agent, Algo, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, Outcome, RunEnd, Trainer,
-    TrainerConfig, Transition,
+    Agent, Algo, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, RunEnd, Trainer, TrainerConfig,
+    Transition,
 };
 
 use crate::progress;
@@ -319,7 +319,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 
 fn print_summary(out: &Path, s: &Summary, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
-    let what = s.strategy.as_deref().map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
+    let what = s.strategy.map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
     println!(
         "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
@@ -346,9 +346,8 @@ struct TrainHooks {
     bar: indicatif::ProgressBar,
     by_steps: bool,
     stop: StopRequest,
-    crashed: u64,
-    filtered: u64,
-    episodes: u64,
+    /// The episodes so far, for the progress line.
+    counts: OutcomeCounts,
     recorder: Option<TrainingRecorder>,
     updates: UpdateLog,
     error: Option<anyhow::Error>,
@@ -372,9 +371,7 @@ impl TrainHooks {
             bar: progress::bar(total, unit),
             by_steps,
             stop,
-            crashed: 0,
-            filtered: 0,
-            episodes: 0,
+            counts: OutcomeCounts::default(),
             recorder,
             updates: UpdateLog::default(),
             error: None,
@@ -385,19 +382,10 @@ impl TrainHooks {
     fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
         self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals, steps)?;
         for r in episodes {
-            self.count(r);
+            self.counts.add(r.outcome());
         }
         self.bar.set_position(if self.by_steps { steps } else { episodes.len() as u64 });
         Ok(())
-    }
-
-    fn count(&mut self, r: &EpisodeRecord) {
-        self.episodes += 1;
-        match r.outcome() {
-            Outcome::Crashed => self.crashed += 1,
-            Outcome::Filtered => self.filtered += 1,
-            Outcome::Truncated => {}
-        }
     }
 
     fn write_summary<A: Agent, E: Env, V: Env>(
@@ -408,27 +396,24 @@ impl TrainHooks {
         let defender = self.config.defender.as_ref();
         let mut summary = Summary {
             env: self.config.env.clone(),
-            algo: self.config.algo.as_str().to_string(),
+            algo: self.config.algo,
             seed: self.config.seed,
-            strategy: defender.map(|d| d.strategy.to_string()),
-            mode: defender.map(|d| d.mode.to_string()),
+            // `auto` is resolved before the run is built: the summary names the strategy used.
+            strategy: defender.and_then(|d| d.strategy.fixed()),
+            mode: defender.map(|d| d.mode),
             acc_reward: final_eval.map(|e| e.mean_return),
             crash_pct: 0.0,
             filtered_pct: 0.0,
             episodes: 0,
             steps: trainer.total_steps(),
             // A filtered step always ends its episode: one per filtered episode.
-            filtered_steps: self.filtered,
+            filtered_steps: self.counts.filtered,
             wall_seconds: trainer.wall_seconds(),
             steps_per_second: 0.0,
             complete: final_eval.is_some(),
             selection: defender.and_then(|d| d.selection.clone()),
         };
-        summary.count(trainer.episodes().iter().map(|r| match r.outcome() {
-            Outcome::Crashed => defender_report::Outcome::Crashed,
-            Outcome::Filtered => defender_report::Outcome::Filtered,
-            Outcome::Truncated => defender_report::Outcome::Truncated,
-        }));
+        summary.count(trainer.episodes().iter().map(EpisodeRecord::outcome));
         self.run_dir.write_summary(&summary)?;
         Ok(summary)
     }
@@ -461,21 +446,20 @@ impl Hooks for TrainHooks {
         if let Some(error) = self.error.take() {
             return Err(error.into());
         }
-        self.count(record);
+        self.counts.add(record.outcome());
         self.run_dir.append_episode(record)?;
         if let Some(recorder) = &mut self.recorder {
             recorder.end_episode(record)?;
         }
         if !self.by_steps {
-            self.bar.set_position(self.episodes);
+            self.bar.set_position(self.counts.episodes);
         }
-        let n = self.episodes.max(1) as f64;
         self.bar.set_message(format!(
             "ep {} return {:.0} crash {:.1}% filtered {:.1}%",
             record.episode,
             record.episode_return,
-            100.0 * self.crashed as f64 / n,
-            100.0 * self.filtered as f64 / n
+            self.counts.crash_pct(),
+            self.counts.filtered_pct()
         ));
         Ok(())
     }
