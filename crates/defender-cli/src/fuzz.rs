@@ -472,7 +472,7 @@ pub(crate) fn npy_arrays(budget: Budget) -> Report {
 /// `defender train --config` files.
 pub(crate) fn config(budget: Budget) -> Report {
     run("config", corpus("config"), budget, 8 << 10, 16 << 20, &mut |input| {
-        crate::commands::train::read_config_str(&String::from_utf8_lossy(input)).is_ok()
+        crate::run_config::read_config_str(&String::from_utf8_lossy(input)).is_ok()
     })
 }
 

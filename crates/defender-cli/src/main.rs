@@ -6,10 +6,12 @@ mod commands;
 mod fuzz;
 mod progress;
 mod resume;
+mod run_config;
 mod run_dir;
 mod setup;
 mod signals;
 mod sweep;
+mod text_table;
 mod update_log;
 
 use clap::{Parser, Subcommand};

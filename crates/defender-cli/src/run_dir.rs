@@ -1,5 +1,5 @@
-//! The run directory of docs/run-directory.md: what `defender train` writes and `defender report`
-//! reads. Whole files are written atomically (temporary file, then rename); `metrics.csv` and
+//! Writing the run directory of docs/run-directory.md as a run goes. The files' names, headers and
+//! row formats are `defender_report::run`'s, beside their readers. Whole files are written atomically (temporary file, then rename); `metrics.csv` and
 //! `eval.csv` grow by whole lines, flushed as they are written, and are rewritten atomically from
 //! the checkpoint's records on resume, so an interrupted run keeps everything already written.
 
@@ -9,29 +9,35 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use defender_report::{
-    CONFIG_FILE, EVAL_FILE, EVAL_HEADER, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary, write_atomic,
+    CONFIG_FILE, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE,
+    Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
 };
 use defender_rl::{EpisodeRecord, EvalRecord};
 use serde::Serialize;
 
-use crate::update_log::{UPDATES_FILE, UPDATES_HEADER};
-
-/// Formats one `metrics.csv` row.
-pub fn metrics_row(r: &EpisodeRecord) -> String {
-    format!(
-        "{},{},{},{},{},{:.3}",
-        r.episode,
-        r.total_steps,
-        r.episode_return,
-        r.length,
-        r.outcome().as_str(),
-        r.wall_seconds
-    )
+/// One `metrics.csv` row.
+fn metrics_row(r: &EpisodeRecord) -> String {
+    EpisodeRow {
+        episode: r.episode,
+        total_steps: r.total_steps,
+        ret: r.episode_return,
+        length: r.length,
+        outcome: r.outcome(),
+        wall_seconds: r.wall_seconds,
+    }
+    .to_csv()
 }
 
-/// Formats one `eval.csv` row.
-pub fn eval_row(r: &EvalRecord) -> String {
-    format!("{},{},{},{},{}", r.total_steps, r.mean_return, r.std_return, r.mean_length, r.episodes)
+/// One `eval.csv` row.
+fn eval_row(r: &EvalRecord) -> String {
+    EvalRow {
+        total_steps: r.total_steps,
+        mean_return: r.mean_return,
+        std_return: r.std_return,
+        mean_length: r.mean_length,
+        episodes: r.episodes as u64,
+    }
+    .to_csv()
 }
 
 /// An open run directory.

@@ -1,105 +1,16 @@
-//! Building a run from its configuration: the task, DEFENDER around it, the agent, the recorder.
-//! Shared by `defender train` and `defender demos collect`.
+//! Building a run from its configuration: the task, DEFENDER around it, the agent; and the
+//! recorder of its training episodes (`--record-episodes`).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use defender::{DefenderConfig, DefenderEnv, EpisodeRecorder, EpisodeSet, Meta};
+use defender::selection::StrategyChoice;
+use defender::{DefenderEnv, EpisodeRecorder, EpisodeSet, Meta};
 use defender_rl::{Agent, AlgoConfig, Env, EpisodeRecord, Outcome, SeedPurpose, Transition, derive_seed};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
-/// The `[defender]` section of a run configuration.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DefenderSection {
-    /// `SAFE/UNSAFE` (SPEC section 3), or `auto` in a configuration given to `defender train`
-    /// (chosen before training; `config.toml` then holds the choice and `selection`).
-    pub strategy: defender::selection::StrategyChoice,
-    /// `state` or `state-action`.
-    #[serde(default)]
-    pub mode: defender::Mode,
-    /// The reward of a filtered step; resolved (from the demonstrations if not given) and saved.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub r_task: Option<f64>,
-    /// Demonstrations per group (`None`: all of the file).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub num_demos: Option<usize>,
-    /// The demonstration set; `None`: the one shipped for the task.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub demos: Option<PathBuf>,
-    /// SHA-256 of the demonstration file's bytes, pinned when the run starts: a resumed run (or a
-    /// configuration given with it) refuses a file whose content differs.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub demos_sha256: Option<String>,
-    /// Options of the alignment cost (SPEC section 2; off by default).
-    #[serde(default)]
-    pub cost: defender::CostOptions,
-    /// The dynamics model (SPEC section 5).
-    #[serde(default)]
-    pub dynamics: defender::DynamicsConfig,
-    /// How `strategy = "auto"` chose the strategy (`[defender.selection]`); absent otherwise.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub selection: Option<defender_report::StrategySelection>,
-}
-
-impl DefenderSection {
-    /// A section with defaults for `strategy`.
-    pub fn new(strategy: defender::selection::StrategyChoice) -> Self {
-        Self {
-            strategy,
-            mode: defender::Mode::default(),
-            r_task: None,
-            num_demos: None,
-            demos: None,
-            demos_sha256: None,
-            cost: Default::default(),
-            dynamics: Default::default(),
-            selection: None,
-        }
-    }
-
-    /// The method crate's configuration.
-    pub fn to_config(&self) -> Result<DefenderConfig> {
-        Ok(DefenderConfig {
-            strategy: self.strategy.fixed().context("strategy \"auto\" is chosen before the run is built")?,
-            mode: self.mode,
-            num_demos: self.num_demos,
-            r_task: self.r_task,
-            cost: self.cost,
-            dynamics: self.dynamics.clone(),
-        })
-    }
-
-    /// Applies the `defender train` flags that configure DEFENDER.
-    pub fn apply_flags(&mut self, args: &crate::commands::train::TrainArgs) -> Result<()> {
-        if let Some(s) = &args.strategy {
-            let choice: defender::selection::StrategyChoice = s.parse().context("--strategy")?;
-            // `auto` over a strategy already chosen automatically (a resumed run) keeps the choice.
-            if !(choice == defender::selection::StrategyChoice::Auto && self.selection.is_some()) {
-                self.strategy = choice;
-                self.selection = None;
-            }
-        }
-        if let Some(m) = &args.mode {
-            self.mode = m.parse().context("--mode")?;
-        }
-        if args.r_task.is_some() {
-            self.r_task = args.r_task;
-        }
-        if args.num_demos.is_some() {
-            self.num_demos = args.num_demos;
-        }
-        if args.demos.is_some() {
-            self.demos.clone_from(&args.demos);
-        }
-        if args.dynamics_thread {
-            self.dynamics.background = true;
-        }
-        Ok(())
-    }
-}
+use crate::run_config::DefenderSection;
 
 /// Where the demonstration set shipped for `env_id` lives: `data/demos/<ENV>.npz` in the source
 /// tree the binary was built from (or `$DEFENDER_DATA/demos/<ENV>.npz`).
@@ -113,7 +24,7 @@ pub fn shipped_demos(env_id: &str) -> PathBuf {
 }
 
 /// A built run: the agent, the training environment (DEFENDER around the task when configured),
-/// and the unfiltered evaluation environment.
+/// the unfiltered evaluation environment, and DEFENDER's section as resolved.
 pub struct Built {
     /// The agent.
     pub agent: Box<dyn Agent>,
@@ -121,23 +32,22 @@ pub struct Built {
     pub env: Box<dyn Env>,
     /// The evaluation environment (never filtered: SPEC section 6).
     pub eval_env: Box<dyn Env>,
+    /// The `[defender]` section with what building it resolved: `R_task`, the demonstration file
+    /// and its SHA-256, `num_demos`, and the strategy `auto` chose (`None` for a bare run).
+    pub defender: Option<DefenderSection>,
 }
 
-/// Builds the agent and the environments of a run; resolves `R_task` and the demonstration path
-/// into `section` so that `config.toml` records what was used.
-pub fn build(
-    env_id: &str,
-    algo: &AlgoConfig,
-    seed: u64,
-    section: Option<&mut DefenderSection>,
-) -> Result<Built> {
+/// Builds the agent and the environments of a run, and returns with them the `[defender]` section
+/// as resolved, so that `config.toml` records what was used.
+pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&DefenderSection>) -> Result<Built> {
     let task = defender_mujoco::make(env_id)?;
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
     let agent = algo.build(obs_dim, act_dim, seed)?;
     let Some(section) = section else {
-        return Ok(Built { agent, env: Box::new(task), eval_env });
+        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None });
     };
+    let mut section = section.clone();
     let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
     if !path.exists() && section.demos.is_none() {
         bail!(
@@ -157,7 +67,7 @@ pub fn build(
         );
     }
     let demos = EpisodeSet::load(&path)?;
-    if section.strategy == defender::selection::StrategyChoice::Auto {
+    if section.strategy == StrategyChoice::Auto {
         let (strategy, record) =
             crate::commands::select::choose_for_run(&demos, section.mode, section.num_demos, section.cost)?;
         section.strategy = strategy.into();
@@ -172,7 +82,7 @@ pub fn build(
     if section.num_demos.is_none() {
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
-    Ok(Built { agent, env: Box::new(wrapped), eval_env })
+    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section) })
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

@@ -2,11 +2,10 @@
 //! TensorBoard scalars), so a user can see why a run diverged: the critics' loss and mean Q, the
 //! actor's loss, SAC's entropy coefficient and its loss, averaged over every `EVERY` environment
 //! steps.
+//!
+//! The file's name and header are the run directory's (`defender_report::UPDATES_FILE`,
+//! `UPDATES_HEADER`); this module makes its rows.
 
-/// The file's name in the run directory.
-pub const UPDATES_FILE: &str = "updates.csv";
-/// Its header.
-pub const UPDATES_HEADER: &str = "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss";
 /// The accumulator's file in a checkpoint's extra directory.
 pub const CHECKPOINT_FILE: &str = "update_log.json";
 /// Environment steps per row.

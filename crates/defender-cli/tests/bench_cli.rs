@@ -25,8 +25,8 @@ fn table(stdout: &str) -> (Vec<String>, Vec<String>) {
 }
 
 #[test]
-fn quick_dtw_batch_prints_one_row_against_its_target() {
-    let out = defender(&["bench", "--quick", "--only", "dtw-batch"]);
+fn quick_mujoco_prints_a_row_per_task_and_one_target() {
+    let out = defender(&["bench", "--quick", "--only", "mujoco"]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "stdout:\n{stdout}\nstderr:\n{}", text(&out.stderr));
     // Machine context first.
@@ -38,28 +38,30 @@ fn quick_dtw_batch_prints_one_row_against_its_target() {
     assert!(stdout.lines().any(|l| l.starts_with("threads:")));
     let (header, rows) = table(&stdout);
     assert_eq!(header, ["figure", "what", "value", "unit", "target", "status", "notes"]);
-    assert_eq!(rows.len(), 1, "{stdout}");
-    let row = &rows[0];
-    assert!(row.starts_with("dtw-batch "), "{row}");
-    assert!(row.contains("M cells/s") && row.contains(">= 500"), "{row}");
-    assert!(row.contains(" met ") || row.contains(" NOT MET "), "{row}");
+    assert_eq!(rows.len(), 3, "{stdout}");
+    let hopper = rows.iter().find(|r| r.contains("Hopper-v5")).unwrap();
+    assert!(hopper.starts_with("mujoco "), "{hopper}");
+    assert!(hopper.contains("steps/s") && hopper.contains(">= 5000"), "{hopper}");
+    assert!(hopper.contains(" met ") || hopper.contains(" NOT MET "), "{hopper}");
     // The value column parses as a positive number.
-    let after_what = row.split("(Euclidean)").nth(1).unwrap();
-    let value: f64 = after_what.split_whitespace().next().unwrap().parse().unwrap();
-    assert!(value > 0.0 && value.is_finite(), "{row}");
+    for row in &rows {
+        let after_what = row.split("random actions").nth(1).unwrap();
+        let value: f64 = after_what.split_whitespace().next().unwrap().parse().unwrap();
+        assert!(value > 0.0 && value.is_finite(), "{row}");
+    }
     // The summary counts the one target.
     assert!(stdout.lines().any(|l| l.starts_with("targets met: ") && l.contains(" of 1")), "{stdout}");
-    // Neither the demonstrations nor training are announced for a DTW-only run.
+    // Neither the demonstrations nor training are announced for a MuJoCo-only run.
     assert!(!stdout.contains("demos:") && !stdout.contains("training:"), "{stdout}");
 }
 
 #[test]
 fn unknown_figure_is_a_clear_error() {
-    let out = defender(&["bench", "--quick", "--only", "dtw-batch,warp-drive"]);
+    let out = defender(&["bench", "--quick", "--only", "mujoco,warp-drive"]);
     assert!(!out.status.success());
     let stderr = text(&out.stderr);
     assert!(stderr.contains("warp-drive"), "{stderr}");
-    for name in ["mujoco", "dtw-batch", "dtw-push", "filter", "sac", "td3", "overhead", "dynamics"] {
+    for name in ["mujoco", "sac", "td3", "overhead", "dynamics"] {
         assert!(stderr.contains(name), "the error should list '{name}': {stderr}");
     }
     // Nothing was measured.
@@ -69,7 +71,7 @@ fn unknown_figure_is_a_clear_error() {
 #[test]
 fn zero_steps_and_threads_are_refused() {
     for (flag, value) in [("--steps", "0"), ("--threads", "0")] {
-        let out = defender(&["bench", "--only", "dtw-batch", flag, value]);
+        let out = defender(&["bench", "--only", "mujoco", flag, value]);
         assert!(!out.status.success());
         let stderr = text(&out.stderr);
         assert!(stderr.contains(flag) && stderr.contains("at least 1"), "{stderr}");

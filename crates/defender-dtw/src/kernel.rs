@@ -156,26 +156,6 @@ mod tests {
             .collect()
     }
 
-    fn naive(x: &[f32], y: &[f32], dim: usize, band: Option<usize>) -> f64 {
-        let (n, m) = (x.len() / dim, y.len() / dim);
-        let mut d = vec![f64::INFINITY; (n + 1) * (m + 1)];
-        d[0] = 0.0;
-        for i in 0..n {
-            for j in 0..m {
-                if band.is_some_and(|w| i.abs_diff(j) > w) {
-                    continue;
-                }
-                let c = (0..dim)
-                    .map(|k| (f64::from(x[i * dim + k]) - f64::from(y[j * dim + k])).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                let b = d[i * (m + 1) + j].min(d[i * (m + 1) + j + 1]).min(d[(i + 1) * (m + 1) + j]);
-                d[(i + 1) * (m + 1) + j + 1] = c + b;
-            }
-        }
-        d[n * (m + 1) + m]
-    }
-
     #[test]
     fn every_instruction_set_matches_naive() {
         let mut state = 12345u32;
@@ -203,7 +183,7 @@ mod tests {
                 band,
                 max_cost: f32::INFINITY,
             };
-            let want = naive(&x, &y, dim, band);
+            let want = crate::oracle::naive_dtw(&x, &y, dim, band);
             for isa in available() {
                 let got = dtw_cost(isa, &problem, &mut Vec::new());
                 assert!(

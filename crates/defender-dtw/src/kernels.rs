@@ -5,7 +5,7 @@
 use std::cell::Cell;
 
 use crate::lanes::Isa;
-use crate::settings::detected;
+use crate::lanes::detected;
 
 thread_local! {
     static FORCED: Cell<Option<Isa>> = const { Cell::new(None) };
@@ -38,7 +38,7 @@ pub fn available() -> Vec<&'static str> {
 /// The kernel a DTW computed now on this thread would use.
 #[must_use]
 pub fn current() -> &'static str {
-    name(crate::settings::isa())
+    name(crate::lanes::isa())
 }
 
 /// Runs `f` with every DTW set up on this thread computed by `kernel` (one of [`available`]);

@@ -119,3 +119,15 @@ macro_rules! dispatch {
     };
 }
 pub(crate) use dispatch;
+
+/// The instruction set DTW uses: this CPU's best, detected once per process, unless this thread
+/// forces another one ([`crate::kernels::with_kernel`], for tests).
+pub(crate) fn isa() -> Isa {
+    crate::kernels::forced().unwrap_or_else(detected)
+}
+
+/// This CPU's best instruction set, detected once per process.
+pub(crate) fn detected() -> Isa {
+    static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+    *ISA.get_or_init(Isa::detect)
+}

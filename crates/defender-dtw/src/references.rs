@@ -4,10 +4,11 @@
 
 use std::sync::Arc;
 
+use crate::batch::Dtw;
 use crate::error::{DtwError, Result, check_finite, check_sequence};
 use crate::kernel::{self, Problem, RevSeq};
+use crate::lanes::isa;
 use crate::lanes::{GROUP, Isa, PAD};
-use crate::settings::{Dtw, isa};
 use crate::stream::Stream;
 use crate::view::{QueryWindow, View};
 

@@ -4,7 +4,7 @@
 //! `inverted_double_pendulum_v5.py` and `mujoco_env.py`, and is checked against recordings of
 //! Gymnasium itself (`tests/parity.rs`, data from `tools/gym_record.py`).
 
-use defender_rl::{BoxSpace, Env, EnvError, Result, Step, StepInfo, TimeLimit};
+use defender_rl::{BoxSpace, Env, EnvError, Result, Step, StepInfo, TimeLimit, check_vector};
 use mujoco_rs::prelude::{MjData, MjModel, MjtWarning};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -332,15 +332,4 @@ impl Env for MujocoEnv {
         self.needs_reset = terminated;
         Ok(Step { obs, reward, terminated, truncated: false, info: StepInfo::default() })
     }
-}
-
-/// Length and finiteness of a vector handed in by the user.
-fn check_vector(name: &str, values: &[f64], expected: usize) -> Result<()> {
-    if values.len() != expected {
-        return Err(EnvError::LengthMismatch { name: name.into(), expected, got: values.len() });
-    }
-    if let Some((index, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-        return Err(EnvError::NonFinite { name: name.into(), index, value });
-    }
-    Ok(())
 }

@@ -16,8 +16,8 @@ pub use io::write_atomic;
 pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
 pub use render::{CSV_HEADER, Format, render};
 pub use run::{
-    Budget, CONFIG_FILE, EVAL_FILE, EVAL_HEADER, Episode, Evaluation, Filter, METRICS_FILE, METRICS_HEADER,
-    Mode, Outcome, Run, RunConfig, SUMMARY_FILE, StrategySelection, Summary,
+    CONFIG_FILE, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE, METRICS_HEADER,
+    OutcomeCounts, Run, RunSettings, SUMMARY_FILE, StrategySelection, Summary, UPDATES_FILE, UPDATES_HEADER,
 };
 pub use stats::{Stat, interpolate, linspace, rolling_mean};
 pub use table::{Row, Table};

@@ -11,7 +11,9 @@ use plotters::prelude::*;
 
 use crate::error::{ReportError, Result, io_err};
 use crate::io::write_atomic;
-use crate::run::{Budget, Filter, Outcome, Run};
+use defender_rl::{Budget, Outcome};
+
+use crate::run::{DefenderSettings, Run};
 use crate::stats::{interpolate, linspace, rolling_mean};
 
 /// DejaVu Sans (Bitstream Vera license, see assets/DejaVuSans-LICENSE.txt), so that text is drawn
@@ -111,7 +113,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
     register_font();
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     type Key<'a> = (&'a str, &'a str, Budget);
-    let mut groups: BTreeMap<Key<'_>, BTreeMap<Option<&Filter>, Vec<&Run>>> = BTreeMap::new();
+    let mut groups: BTreeMap<Key<'_>, BTreeMap<Option<&DefenderSettings>, Vec<&Run>>> = BTreeMap::new();
     for run in runs {
         let c = &run.config;
         groups
@@ -133,7 +135,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         }
         let modes: BTreeSet<_> = by_filter.keys().flatten().map(|f| f.mode).collect();
         let demos: BTreeSet<_> = by_filter.keys().flatten().map(|f| f.num_demos).collect();
-        let label = |filter: Option<&Filter>, seeds: usize| {
+        let label = |filter: Option<&DefenderSettings>, seeds: usize| {
             let mut text = match filter {
                 None => format!("{} (bare)", algo.to_uppercase()),
                 Some(f) => f.strategy.clone(),

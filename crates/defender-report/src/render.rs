@@ -5,7 +5,10 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::str::FromStr;
 
-use crate::run::{Budget, Filter, Mode};
+use defender::Mode;
+use defender_rl::Budget;
+
+use crate::run::DefenderSettings;
 use crate::stats::Stat;
 use crate::table::{Row, Table};
 
@@ -95,7 +98,7 @@ fn markdown(table: &Table) -> String {
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
             for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
                 let (safe, unsafe_) =
-                    row.filter.as_ref().map_or(("-", "-"), |f: &Filter| (f.safe(), f.unsafe_()));
+                    row.filter.as_ref().map_or(("-", "-"), |f: &DefenderSettings| (f.safe(), f.unsafe_()));
                 let mut line = vec![row.algo.to_uppercase(), safe.to_string(), unsafe_.to_string()];
                 if demos {
                     line.push(demos_text(row));
@@ -231,7 +234,7 @@ fn latex(table: &Table) -> String {
             rows.iter().map(|r| r.algo.as_str()).collect::<BTreeSet<_>>().into_iter().collect();
         for algo in algos {
             out.push_str("\\midrule\n");
-            let filters: Vec<Option<&Filter>> = rows
+            let filters: Vec<Option<&DefenderSettings>> = rows
                 .iter()
                 .filter(|r| r.algo == algo)
                 .map(|r| r.filter.as_ref())

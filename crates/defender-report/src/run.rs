@@ -1,9 +1,10 @@
 //! One run directory (docs/run-directory.md): its configuration, training episodes, evaluations
 //! and summary, read and checked against each other.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
+use defender::{Mode, Strategy};
+use defender_rl::{Algo, Budget, Outcome};
 use serde::{Deserialize, Serialize};
 
 use crate::csv::CsvFile;
@@ -22,88 +23,20 @@ pub const SUMMARY_FILE: &str = "summary.json";
 pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds";
 /// The header of `eval.csv`.
 pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes";
+/// The learner's statistics every 1000 steps (written by `defender train`, not read by the
+/// report).
+pub const UPDATES_FILE: &str = "updates.csv";
+/// The header of `updates.csv`.
+pub const UPDATES_HEADER: &str = "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss";
 
 /// Tolerance for comparing a percentage in `summary.json` with the one recomputed from
 /// `metrics.csv` (the writer may round to 0.1).
 const PCT_TOLERANCE: f64 = 0.051;
 
-/// The training budget: environment steps or episodes (exactly one of `total_steps` and
-/// `total_episodes` in `config.toml` is non-zero).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Budget {
-    /// A number of environment steps.
-    Steps(u64),
-    /// A number of training episodes.
-    Episodes(u64),
-}
-
-impl fmt::Display for Budget {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Budget::Steps(n) => write!(f, "{n} steps"),
-            Budget::Episodes(n) => write!(f, "{n} episodes"),
-        }
-    }
-}
-
-/// What DEFENDER compares: state trajectories or state-action trajectories (SPEC section 3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Mode {
-    /// `"state"`: the paper's Table 1.
-    State,
-    /// `"state-action"`: the paper's Table 2.
-    StateAction,
-}
-
-impl Mode {
-    /// The name used in `config.toml` and `summary.json`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Mode::State => "state",
-            Mode::StateAction => "state-action",
-        }
-    }
-
-    fn parse(text: &str) -> Option<Self> {
-        match text {
-            "state" => Some(Mode::State),
-            "state-action" => Some(Mode::StateAction),
-            _ => None,
-        }
-    }
-}
-
-impl fmt::Display for Mode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-/// How a training episode ended (SPEC section 6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Outcome {
-    /// The environment terminated it (an unhealthy state).
-    Crashed,
-    /// DEFENDER ended it; not a crash.
-    Filtered,
-    /// It reached the horizon.
-    Truncated,
-}
-
-impl Outcome {
-    fn parse(text: &str) -> Option<Self> {
-        match text {
-            "crashed" => Some(Outcome::Crashed),
-            "filtered" => Some(Outcome::Filtered),
-            "truncated" => Some(Outcome::Truncated),
-            _ => None,
-        }
-    }
-}
-
-/// The DEFENDER settings of a run (the `[defender]` table of `config.toml`).
+/// The DEFENDER settings of a run that a report groups by (from the `[defender]` table of
+/// `config.toml`).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Filter {
+pub struct DefenderSettings {
     /// `SAFE/UNSAFE`, e.g. `MeanDemoW5/MeanDemoW10`.
     pub strategy: String,
     /// State or state-action trajectories.
@@ -112,7 +45,7 @@ pub struct Filter {
     pub num_demos: Option<u64>,
 }
 
-impl Filter {
+impl DefenderSettings {
     /// The strategy of the safe group (before the `/`).
     pub fn safe(&self) -> &str {
         self.strategy.split_once('/').map_or(self.strategy.as_str(), |(s, _)| s)
@@ -126,7 +59,7 @@ impl Filter {
 
 /// What the report needs from `config.toml`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct RunConfig {
+pub struct RunSettings {
     /// Gymnasium id, e.g. `Hopper-v5`.
     pub env: String,
     /// `sac` or `td3`.
@@ -136,7 +69,7 @@ pub struct RunConfig {
     /// Steps or episodes.
     pub budget: Budget,
     /// `None` for a bare run.
-    pub filter: Option<Filter>,
+    pub filter: Option<DefenderSettings>,
 }
 
 /// `summary.json`: written by `defender train` (early with `complete: false`, then after every
@@ -146,13 +79,13 @@ pub struct Summary {
     /// Gymnasium id.
     pub env: String,
     /// `sac` or `td3`.
-    pub algo: String,
+    pub algo: Algo,
     /// The run's seed.
     pub seed: u64,
     /// `SAFE/UNSAFE`, `None` for a bare run.
-    pub strategy: Option<String>,
+    pub strategy: Option<Strategy>,
     /// `state` or `state-action`, `None` for a bare run.
-    pub mode: Option<String>,
+    pub mode: Option<Mode>,
     /// Mean return of the final evaluation (the paper's Acc Reward); `None` (null) until it ran.
     /// [`Run::load`] accepts a complete run only with a finite value, see [`Run::acc_reward`].
     pub acc_reward: Option<f64>,
@@ -216,24 +149,54 @@ impl Summary {
     /// Sets `episodes`, `crash_pct`, `filtered_pct` and `steps_per_second` from the outcomes of the
     /// training episodes and the `steps` and `wall_seconds` already set, as [`Run::load`] checks them.
     pub fn count(&mut self, outcomes: impl IntoIterator<Item = Outcome>) {
-        let (mut n, mut crashed, mut filtered) = (0u64, 0u64, 0u64);
-        for outcome in outcomes {
-            n += 1;
-            crashed += u64::from(outcome == Outcome::Crashed);
-            filtered += u64::from(outcome == Outcome::Filtered);
-        }
-        let pct = |k: u64| if n == 0 { 0.0 } else { 100.0 * k as f64 / n as f64 };
-        self.episodes = n;
-        self.crash_pct = pct(crashed);
-        self.filtered_pct = pct(filtered);
+        let mut counts = OutcomeCounts::default();
+        outcomes.into_iter().for_each(|o| counts.add(o));
+        self.episodes = counts.episodes;
+        self.crash_pct = counts.crash_pct();
+        self.filtered_pct = counts.filtered_pct();
         self.steps_per_second =
             if self.wall_seconds > 0.0 { self.steps as f64 / self.wall_seconds } else { 0.0 };
     }
 }
 
+/// Training episodes by outcome: the one count behind `summary.json`'s percentages, the check of
+/// a run directory, and a training run's progress line.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct OutcomeCounts {
+    /// Episodes counted.
+    pub episodes: u64,
+    /// Of which crashed.
+    pub crashed: u64,
+    /// Of which DEFENDER ended.
+    pub filtered: u64,
+}
+
+impl OutcomeCounts {
+    /// Counts one episode.
+    pub fn add(&mut self, outcome: Outcome) {
+        self.episodes += 1;
+        self.crashed += u64::from(outcome == Outcome::Crashed);
+        self.filtered += u64::from(outcome == Outcome::Filtered);
+    }
+
+    /// Crashed episodes / all x 100 (0 without episodes).
+    pub fn crash_pct(&self) -> f64 {
+        self.pct(self.crashed)
+    }
+
+    /// Filtered episodes / all x 100 (0 without episodes).
+    pub fn filtered_pct(&self) -> f64 {
+        self.pct(self.filtered)
+    }
+
+    fn pct(&self, k: u64) -> f64 {
+        if self.episodes == 0 { 0.0 } else { 100.0 * k as f64 / self.episodes as f64 }
+    }
+}
+
 /// One row of `metrics.csv`: a training episode.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Episode {
+pub struct EpisodeRow {
     /// 0-based index.
     pub episode: u64,
     /// Environment steps taken by the end of this episode.
@@ -248,9 +211,24 @@ pub struct Episode {
     pub wall_seconds: f64,
 }
 
+impl EpisodeRow {
+    /// The row as `metrics.csv` holds it (without the newline).
+    pub fn to_csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{:.3}",
+            self.episode,
+            self.total_steps,
+            self.ret,
+            self.length,
+            self.outcome.as_str(),
+            self.wall_seconds
+        )
+    }
+}
+
 /// One row of `eval.csv`: an evaluation of the deterministic policy.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Evaluation {
+pub struct EvalRow {
     /// Environment steps of training when it was made.
     pub total_steps: u64,
     /// Mean undiscounted return over the evaluation episodes.
@@ -263,19 +241,29 @@ pub struct Evaluation {
     pub episodes: u64,
 }
 
+impl EvalRow {
+    /// The row as `eval.csv` holds it (without the newline).
+    pub fn to_csv(&self) -> String {
+        format!(
+            "{},{},{},{},{}",
+            self.total_steps, self.mean_return, self.std_return, self.mean_length, self.episodes
+        )
+    }
+}
+
 /// A complete run directory, read and checked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {
     /// The directory.
     pub dir: PathBuf,
     /// From `config.toml`.
-    pub config: RunConfig,
+    pub config: RunSettings,
     /// From `summary.json`.
     pub summary: Summary,
     /// From `metrics.csv`, in order.
-    pub episodes: Vec<Episode>,
+    pub episodes: Vec<EpisodeRow>,
     /// From `eval.csv`, in order; the last one is the final evaluation.
-    pub evaluations: Vec<Evaluation>,
+    pub evaluations: Vec<EvalRow>,
 }
 
 impl Run {
@@ -293,9 +281,12 @@ impl Run {
         let dir = dir.as_ref();
         let summary_path = dir.join(SUMMARY_FILE);
         let summary_text = read(&summary_path)?;
-        let summary = parse_summary(dir, &summary_path, &summary_text)?;
+        let summary_value = summary_json(dir, &summary_path, &summary_text)?;
+        // config.toml before the summary's typed fields, so that a malformed strategy is reported
+        // against the file that configures it.
         let config_path = dir.join(CONFIG_FILE);
         let config = parse_config(&config_path, &read(&config_path)?)?;
+        let summary = parse_summary(&summary_path, summary_value)?;
         let metrics_path = dir.join(METRICS_FILE);
         let episodes = parse_metrics(&metrics_path, &read(&metrics_path)?)?;
         let eval_path = dir.join(EVAL_FILE);
@@ -327,12 +318,15 @@ impl Run {
                 s.env, s.algo, s.seed, c.env, c.algo, c.seed
             )));
         }
-        let config_filter = c.filter.as_ref().map(|f| (f.strategy.as_str(), f.mode.as_str()));
-        let summary_filter = s.strategy.as_deref().zip(s.mode.as_deref());
+        let config_filter = c.filter.as_ref().map(|f| (f.strategy.clone(), f.mode));
+        let summary_filter = s.strategy.map(|st| st.to_string()).zip(s.mode);
         if config_filter != summary_filter || s.strategy.is_some() != s.mode.is_some() {
+            let show = |v: Option<String>| v.map_or("null".to_string(), |v| format!("{v:?}"));
             return Err(invalid(format!(
-                "strategy/mode {:?}/{:?} disagree with config.toml's [defender] table {:?}",
-                s.strategy, s.mode, config_filter
+                "strategy/mode {}/{} disagree with config.toml's [defender] table {:?}",
+                show(s.strategy.map(|st| st.to_string())),
+                show(s.mode.map(|m| m.to_string())),
+                config_filter.map(|(st, m)| (st, m.to_string()))
             )));
         }
         let n = self.episodes.len() as u64;
@@ -346,22 +340,20 @@ impl Run {
                 s.steps
             )));
         }
-        let pct = |k: usize| if n == 0 { 0.0 } else { k as f64 * 100.0 / n as f64 };
-        let crash = pct(self.crashed());
+        let mut counts = OutcomeCounts::default();
+        self.episodes.iter().for_each(|e| counts.add(e.outcome));
+        let crash = counts.crash_pct();
         if (s.crash_pct - crash).abs() > PCT_TOLERANCE {
             return Err(invalid(format!(
                 "crash_pct = {} but metrics.csv has {} crashed of {n} episodes ({crash:.3}%)",
-                s.crash_pct,
-                self.crashed()
+                s.crash_pct, counts.crashed
             )));
         }
-        let filtered_count = self.episodes.iter().filter(|e| e.outcome == Outcome::Filtered).count();
-        let filtered = pct(filtered_count);
+        let filtered = counts.filtered_pct();
         if (s.filtered_pct - filtered).abs() > PCT_TOLERANCE {
             return Err(invalid(format!(
-                "filtered_pct = {} but metrics.csv has {filtered_count} filtered of {n} episodes \
-                 ({filtered:.3}%)",
-                s.filtered_pct
+                "filtered_pct = {} but metrics.csv has {} filtered of {n} episodes ({filtered:.3}%)",
+                s.filtered_pct, counts.filtered
             )));
         }
         let Some(last_eval) = self.evaluations.last() else {
@@ -392,9 +384,10 @@ fn read(path: &Path) -> Result<String> {
     })
 }
 
-fn parse_summary(dir: &Path, path: &Path, text: &str) -> Result<Summary> {
+/// `summary.json` as JSON, checked for `"complete": true` first: an incomplete run may lack the
+/// totals.
+fn summary_json(dir: &Path, path: &Path, text: &str) -> Result<serde_json::Value> {
     let json_err = |source| ReportError::Json { path: path.to_path_buf(), source };
-    // `complete` first: an incomplete run may lack the totals.
     let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
     match value.get("complete") {
         Some(serde_json::Value::Bool(true)) => {}
@@ -408,7 +401,12 @@ fn parse_summary(dir: &Path, path: &Path, text: &str) -> Result<Summary> {
             });
         }
     }
-    let summary: Summary = serde_json::from_value(value).map_err(json_err)?;
+    Ok(value)
+}
+
+fn parse_summary(path: &Path, value: serde_json::Value) -> Result<Summary> {
+    let summary: Summary = serde_json::from_value(value)
+        .map_err(|source| ReportError::Json { path: path.to_path_buf(), source })?;
     let Some(acc_reward) = summary.acc_reward else {
         return Err(ReportError::Invalid {
             path: path.to_path_buf(),
@@ -454,7 +452,7 @@ struct RawDefender {
     num_demos: Option<u64>,
 }
 
-fn parse_config(path: &Path, text: &str) -> Result<RunConfig> {
+fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
     let raw: RawConfig = toml::from_str(text)
         .map_err(|e| ReportError::Toml { path: path.to_path_buf(), source: Box::new(e) })?;
     let invalid = |message: String| ReportError::Invalid { path: path.to_path_buf(), message };
@@ -470,7 +468,7 @@ fn parse_config(path: &Path, text: &str) -> Result<RunConfig> {
     let filter = match raw.defender {
         None => None,
         Some(d) => {
-            let mode = Mode::parse(&d.mode).ok_or_else(|| {
+            let mode = d.mode.parse::<Mode>().map_err(|_| {
                 invalid(format!("[defender] mode = {:?}: expected \"state\" or \"state-action\"", d.mode))
             })?;
             if d.strategy.split('/').count() != 2 || d.strategy.split('/').any(str::is_empty) {
@@ -479,22 +477,22 @@ fn parse_config(path: &Path, text: &str) -> Result<RunConfig> {
                     d.strategy
                 )));
             }
-            Some(Filter { strategy: d.strategy, mode, num_demos: d.num_demos })
+            Some(DefenderSettings { strategy: d.strategy, mode, num_demos: d.num_demos })
         }
     };
-    Ok(RunConfig { env: raw.env, algo: raw.algo, seed: raw.seed, budget, filter })
+    Ok(RunSettings { env: raw.env, algo: raw.algo, seed: raw.seed, budget, filter })
 }
 
 const METRICS_COLUMNS: &[&str] = &["episode", "total_steps", "return", "length", "outcome", "wall_seconds"];
 
-fn parse_metrics(path: &Path, text: &str) -> Result<Vec<Episode>> {
+fn parse_metrics(path: &Path, text: &str) -> Result<Vec<EpisodeRow>> {
     let file = CsvFile::parse(path, text, METRICS_HEADER, METRICS_COLUMNS)?;
-    let mut episodes: Vec<Episode> = Vec::new();
+    let mut episodes: Vec<EpisodeRow> = Vec::new();
     for row in file.rows() {
-        let outcome = Outcome::parse(row.text(4)).ok_or_else(|| {
+        let outcome = Outcome::from_name(row.text(4)).ok_or_else(|| {
             row.error(format!("column outcome: {:?} is not one of crashed, filtered, truncated", row.text(4)))
         })?;
-        let episode = Episode {
+        let episode = EpisodeRow {
             episode: row.get(0)?,
             total_steps: row.get(1)?,
             ret: row.finite(2)?,
@@ -521,11 +519,11 @@ fn parse_metrics(path: &Path, text: &str) -> Result<Vec<Episode>> {
 
 const EVAL_COLUMNS: &[&str] = &["total_steps", "mean_return", "std_return", "mean_length", "episodes"];
 
-fn parse_eval(path: &Path, text: &str) -> Result<Vec<Evaluation>> {
+fn parse_eval(path: &Path, text: &str) -> Result<Vec<EvalRow>> {
     let file = CsvFile::parse(path, text, EVAL_HEADER, EVAL_COLUMNS)?;
-    let mut evaluations: Vec<Evaluation> = Vec::new();
+    let mut evaluations: Vec<EvalRow> = Vec::new();
     for row in file.rows() {
-        let evaluation = Evaluation {
+        let evaluation = EvalRow {
             total_steps: row.get(0)?,
             mean_return: row.finite(1)?,
             std_return: row.finite(2)?,

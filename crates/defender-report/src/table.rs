@@ -3,7 +3,10 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::run::{Budget, Filter, Mode, Run};
+use defender::Mode;
+use defender_rl::Budget;
+
+use crate::run::{DefenderSettings, Run};
 use crate::stats::Stat;
 
 /// One row of the table: a task, an algorithm, a budget and a strategy (or none: the bare
@@ -17,7 +20,7 @@ pub struct Row {
     /// The training budget.
     pub budget: Budget,
     /// `None` for the bare algorithm.
-    pub filter: Option<Filter>,
+    pub filter: Option<DefenderSettings>,
     /// The seeds, ascending.
     pub seeds: Vec<u64>,
     /// Acc Reward: the mean return of the final evaluation.

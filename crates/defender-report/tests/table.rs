@@ -4,7 +4,9 @@
 mod common;
 
 use common::{A, B, RunSpec, paper_fixture};
-use defender_report::{Budget, CSV_HEADER, Format, Mode, Row, Stat, Table, load_runs, render};
+use defender::Mode;
+use defender_report::{CSV_HEADER, Format, Row, Stat, Table, load_runs, render};
+use defender_rl::Budget;
 
 fn close(stat: &Stat, mean: f64, std: f64) -> bool {
     (stat.mean - mean).abs() < 1e-9 && (stat.std - std).abs() < 1e-9

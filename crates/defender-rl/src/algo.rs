@@ -28,6 +28,12 @@ impl Algo {
     }
 }
 
+impl std::fmt::Display for Algo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 impl std::str::FromStr for Algo {
     type Err = RlError;
     fn from_str(s: &str) -> Result<Self, RlError> {

@@ -51,11 +51,12 @@ pub enum EnvError {
 /// Result of the environment API.
 pub type Result<T, E = EnvError> = std::result::Result<T, E>;
 
-/// Checks length and finiteness of a vector handed to an environment.
+/// Checks length and finiteness of a vector handed to an environment (actions, states, replay
+/// rows): the one check every environment and buffer of the workspace uses.
 ///
 /// # Errors
-/// [`EnvError::LengthMismatch`] or [`EnvError::NonFinite`].
-pub(crate) fn check_vector(name: &str, values: &[f64], expected: usize) -> Result<()> {
+/// [`EnvError::LengthMismatch`] or [`EnvError::NonFinite`], naming `name`.
+pub fn check_vector(name: &str, values: &[f64], expected: usize) -> Result<()> {
     if values.len() != expected {
         return Err(EnvError::LengthMismatch { name: name.into(), expected, got: values.len() });
     }

@@ -19,8 +19,10 @@ mod trainer;
 pub use agent::{Agent, UpdateStats};
 pub use algo::{Algo, AlgoConfig};
 pub use config::{EntCoef, SacConfig, Td3Config};
+/// How many threads the networks' GEMMs use (`Sac::set_parallelism`, `Td3::set_parallelism`).
+pub use defender_nn::Parallelism;
 pub use env::{Env, Step, StepInfo};
-pub use error::{EnvError, Result, RlError};
+pub use error::{EnvError, Result, RlError, check_vector};
 pub use replay::{Batch, ReplayBuffer, Transition};
 pub use sac::Sac;
 pub use seed::{SeedPurpose, derive_seed};

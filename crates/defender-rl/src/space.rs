@@ -68,4 +68,12 @@ impl BoxSpace {
     pub fn check(&self, what: &str, x: &[f64]) -> Result<()> {
         check_vector(what, x, self.dim())
     }
+
+    /// SB3's `unscale_action`: an action of a squashing policy, in `[-1, 1]`, to this box's
+    /// bounds, `low + (a + 1) / 2 (high - low)`, into `out` (zipped: extra entries are left alone).
+    pub fn unscale(&self, action: &[f32], out: &mut [f64]) {
+        for (((o, &a), &l), &h) in out.iter_mut().zip(action).zip(&self.low).zip(&self.high) {
+            *o = l + (f64::from(a) + 1.0) * 0.5 * (h - l);
+        }
+    }
 }

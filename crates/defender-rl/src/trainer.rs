@@ -27,15 +27,25 @@ use crate::env::Env;
 use crate::error::RlError;
 use crate::replay::Transition;
 use crate::seed::{SeedPurpose, derive_seed};
+use crate::space::BoxSpace;
 
 /// How long to train.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Budget {
     /// This many environment steps (the run stops mid-episode if need be).
     Steps(u64),
     /// This many complete training episodes.
     Episodes(u64),
+}
+
+impl std::fmt::Display for Budget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Budget::Steps(n) => write!(f, "{n} steps"),
+            Budget::Episodes(n) => write!(f, "{n} episodes"),
+        }
+    }
 }
 
 /// Trainer settings (the algorithm's are in its own config).
@@ -90,7 +100,7 @@ impl TrainerConfig {
 }
 
 /// How a training episode ended (SPEC section 6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Outcome {
     /// The environment itself terminated it (unhealthy state).
@@ -109,6 +119,11 @@ impl Outcome {
             Self::Filtered => "filtered",
             Self::Truncated => "truncated",
         }
+    }
+
+    /// The outcome named `text` in `metrics.csv`, if any.
+    pub fn from_name(text: &str) -> Option<Self> {
+        [Self::Crashed, Self::Filtered, Self::Truncated].into_iter().find(|o| o.as_str() == text)
     }
 }
 
@@ -289,8 +304,8 @@ pub struct Trainer<A, E, V> {
     eval_env: V,
     state: TrainerState,
     checkpoint_dir: Option<PathBuf>,
-    low: Vec<f64>,
-    high: Vec<f64>,
+    /// The training environment's action space: the agent acts in `[-1, 1]`.
+    action_space: BoxSpace,
 }
 
 /// Sub-directories of a checkpoint.
@@ -334,7 +349,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 expected: "at least 1 episode per evaluation",
             });
         }
-        let (low, high) = (space.low().to_vec(), space.high().to_vec());
+        let action_space = space.clone();
         let state = TrainerState {
             config,
             total_steps: 0,
@@ -344,7 +359,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
             wall_seconds: 0.0,
             complete: false,
         };
-        Ok(Self { agent, env, eval_env, state, checkpoint_dir: None, low, high })
+        Ok(Self { agent, env, eval_env, state, checkpoint_dir: None, action_space })
     }
 
     /// Writes checkpoints to `dir` (replaced atomically each time; see [`crate::checkpoint`]).
@@ -564,11 +579,9 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         }
     }
 
-    /// SB3's `unscale_action`: `[-1, 1]` to `[low, high]`.
+    /// SB3's `unscale_action`: `[-1, 1]` to the action space's bounds.
     fn rescale(&self, action: &[f32], out: &mut [f64]) {
-        for (((o, &a), &l), &h) in out.iter_mut().zip(action).zip(&self.low).zip(&self.high) {
-            *o = l + (f64::from(a) + 1.0) * 0.5 * (h - l);
-        }
+        self.action_space.unscale(action, out);
     }
 
     /// Runs `episodes` deterministic episodes on the evaluation env and records them.

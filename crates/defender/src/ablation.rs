@@ -212,7 +212,19 @@ impl Ablation {
                 got: "none".into(),
             });
         }
-        let total = episodes.len();
+        self.replay_parallel(episodes, |_| None, progress)
+    }
+
+    /// Replays every episode of `set` in parallel (one pair of streams per worker thread), each
+    /// against the demonstrations without the one `held_out(i)` names, reporting progress; the
+    /// replays come back in file order.
+    fn replay_parallel(
+        &self,
+        set: &EpisodeSet,
+        held_out: impl Fn(usize) -> Option<HeldOut> + Sync,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Vec<EpisodeReplay>> {
+        let total = set.len();
         let done = AtomicUsize::new(0);
         (0..total)
             .into_par_iter()
@@ -221,7 +233,7 @@ impl Ablation {
                 |(streams, element), i| {
                     let (safe, unsafe_) =
                         streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
-                    let replay = self.replay_with(episodes.episode(i), None, safe, unsafe_, element)?;
+                    let replay = self.replay_with(set.episode(i), held_out(i), safe, unsafe_, element)?;
                     let d = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(Progress { done: d, total, episode_len: replay.len });
                     Ok(replay)
@@ -272,23 +284,8 @@ impl Ablation {
                 got: format!("({safe}, {unsafe_})"),
             });
         }
-        let total = set.len();
-        let done = AtomicUsize::new(0);
-        (0..total)
-            .into_par_iter()
-            .map_init(
-                || (self.streams(), Vec::new()),
-                |(streams, element), i| {
-                    let (safe, unsafe_) =
-                        streams.as_mut().map_err(|e| DefenderError::Config(e.to_string()))?;
-                    let replay =
-                        self.replay_with(set.episode(i), Some(positions[i]), safe, unsafe_, element)?;
-                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(Progress { done: d, total, episode_len: replay.len });
-                    Ok((positions[i], replay))
-                },
-            )
-            .collect()
+        let replays = self.replay_parallel(set, |i| Some(positions[i]), progress)?;
+        Ok(positions.into_iter().zip(replays).collect())
     }
 }
 

@@ -2,9 +2,9 @@
 
 mod ablation;
 mod atomic;
+pub mod collection;
 mod defender_env;
 mod demonstrations;
-pub mod direct;
 mod dynamics;
 mod dynamics_worker;
 mod episode_set;

@@ -1,12 +1,15 @@
 //! The work-sharing ablation and the incremental online filter against the direct implementation
-//! (`defender::direct`: every window of every step recomputed from scratch with the textbook DTW),
+//! (`tests/common/direct.rs`: every window of every step recomputed from scratch with the textbook DTW),
 //! on small random sets, in both modes, for all 576 strategies.
 
 #![allow(clippy::unwrap_used)] // test and bench helpers fail loudly on purpose
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use defender::{Ablation, CostOptions, Demonstrations, EpisodeSet, Filter, Meta, Mode, Strategy, direct};
+#[path = "common/direct.rs"]
+mod direct;
+
+use defender::{Ablation, CostOptions, Demonstrations, EpisodeSet, Filter, Meta, Mode, Strategy};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

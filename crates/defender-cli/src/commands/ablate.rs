@@ -8,6 +8,7 @@ use clap::Args;
 use defender::{AblationRow, EpisodeSet, Mode, Strategy, Window};
 
 use crate::progress;
+use crate::text_table::{Column, TextTable};
 
 /// Arguments of `defender ablate`.
 #[derive(Debug, Args)]
@@ -99,19 +100,21 @@ pub fn run(args: AblateArgs) -> Result<()> {
 }
 
 fn print_top(rows: &[AblationRow], top: usize) {
-    let width = rows.iter().take(top).map(|r| r.strategy.to_string().len()).max().unwrap_or(8).max(8);
-    println!(
-        "{:>4}  {:<width$}  {:>10}  {:>9}  {:>8}",
-        "rank", "strategy", "mean_ratio", "safe_rate", "score"
-    );
+    let mut table = TextTable::new(vec![
+        Column::right("rank"),
+        Column::left("strategy"),
+        Column::right("mean_ratio"),
+        Column::right("safe_rate"),
+        Column::right("score").min_width(8),
+    ]);
     for r in rows.iter().take(top) {
-        println!(
-            "{:>4}  {:<width$}  {:>10.4}  {:>9.4}  {:>8.4}",
-            r.rank,
+        table.row([
+            r.rank.to_string(),
             r.strategy.to_string(),
-            r.mean_ratio,
-            r.safe_rate,
-            r.score
-        );
+            format!("{:.4}", r.mean_ratio),
+            format!("{:.4}", r.safe_rate),
+            format!("{:.4}", r.score),
+        ]);
     }
+    print!("{}", table.render());
 }

@@ -1,26 +1,14 @@
 //! `defender demos collect`: demonstrations as in the paper: train a SAC agent and, after every
-//! training episode, record one episode of the current policy.
-//!
-//! How the N of each kind are picked: every episode recorded once SAC has started learning is a
-//! candidate, safe if the environment did not terminate it before the horizon, unsafe if it did.
-//! Training stops once both groups have enough candidates (or at `--max-steps`), and then N are
-//! taken from each group at evenly spaced positions of its candidate list (first and last
-//! included). So the unsafe group spans the whole run, from the falls of a barely trained policy
-//! to the rarer falls of a good one, instead of being the first N crashes of a near-random policy,
-//! and the safe group spans every policy that survived the horizon. The rule and the source
-//! episode of each demonstration are written into the file's `meta`.
-//!
-//! Nothing is recorded during SAC's `learning_starts` random steps: the policy is then the same
-//! untrained network after every episode, so its episodes are copies of one demonstration (on
-//! Hopper-v5 a fall while standing, 200 of 889 candidates). Counted as many, they made the unsafe
-//! group look like the first steps of every episode, and `MeanDemoW5/MeanDemoW10` then filtered
-//! every episode of a new agent at about 20 steps, so that it never learnt (docs/decisions.md).
+//! training episode, record one episode of the current (deterministic) policy. Which episodes
+//! become demonstrations, and how N of each group are spread over the run, is the `defender`
+//! crate's rule (`defender::collection`); this command drives it with SAC on a MuJoCo task.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
-use defender::{EpisodeRecorder, EpisodeSet, Meta};
+use defender::collection::{Candidates, CollectionTarget};
+use defender::{EpisodeRecorder, Meta};
 use defender_mujoco::MujocoEnv;
 use defender_rl::{
     Agent, AlgoConfig, Budget, Env, EpisodeRecord, HookError, Hooks, SacConfig, SeedPurpose, TimeLimit,
@@ -118,12 +106,17 @@ fn collect(args: &CollectArgs) -> Result<()> {
         act_dim: Some(act_dim),
         ..Meta::default()
     };
+    let target = CollectionTarget {
+        safe: args.safe,
+        unsafe_: args.unsafe_,
+        learning_starts,
+        min_steps: args.min_steps,
+    };
     let mut hooks = Collector {
         args,
         learning_starts,
         demo_env: make()?,
-        pool: EpisodeSet::new(obs_dim, act_dim, pool_meta)?,
-        sources: Vec::new(),
+        candidates: Candidates::new(target, pool_meta, obs_dim, act_dim)?,
         recorder: EpisodeRecorder::new(),
         action: vec![0.0; act_dim],
         env_action: vec![0.0; act_dim],
@@ -133,7 +126,17 @@ fn collect(args: &CollectArgs) -> Result<()> {
     trainer.run(&mut hooks)?;
     hooks.bar.finish_and_clear();
     let steps = trainer.total_steps();
-    let set = hooks.select(steps)?;
+    let provenance = format!(
+        "defender demos collect: SAC (seed {}) trained {steps} steps; after every training \
+         episode that ended past its {learning_starts} random steps, one episode of the deterministic policy was \
+         recorded ({} candidates)",
+        args.seed,
+        hooks.candidates.len()
+    );
+    let set = hooks
+        .candidates
+        .select(steps, provenance)
+        .with_context(|| format!("{}: raise --max-steps or ask for fewer demonstrations", args.env))?;
     set.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
     let (safe, unsafe_) = set.group_sizes();
     println!(
@@ -141,7 +144,7 @@ fn collect(args: &CollectArgs) -> Result<()> {
          training steps -> {}",
         args.env,
         set.transitions(),
-        hooks.pool.len(),
+        hooks.candidates.len(),
         args.out.display()
     );
     Ok(())
@@ -153,9 +156,7 @@ struct Collector<'a> {
     /// SAC's first update comes after this many steps; no candidate before it.
     learning_starts: u64,
     demo_env: TimeLimit<MujocoEnv>,
-    pool: EpisodeSet,
-    /// The training episode after which each pool entry was recorded.
-    sources: Vec<u64>,
+    candidates: Candidates,
     recorder: EpisodeRecorder,
     action: Vec<f32>,
     env_action: Vec<f64>,
@@ -164,11 +165,6 @@ struct Collector<'a> {
 }
 
 impl Collector<'_> {
-    fn enough(&self) -> bool {
-        let (safe, unsafe_) = self.pool.group_sizes();
-        safe >= self.args.safe && unsafe_ >= self.args.unsafe_ && self.total_steps >= self.args.min_steps
-    }
-
     /// One episode of the deterministic policy, recorded into the pool.
     fn demonstrate(&mut self, after_episode: u64, agent: &mut dyn Agent) -> Result<()> {
         let seed = derive_seed(self.args.seed, SeedPurpose::Demonstration, after_episode);
@@ -177,75 +173,18 @@ impl Collector<'_> {
         let space = self.demo_env.action_space().clone();
         loop {
             agent.act(&obs, true, &mut self.action)?;
-            for (i, (a, out)) in self.action.iter().zip(&mut self.env_action).enumerate() {
-                // [-1, 1] -> the action bounds, as the trainer does.
-                *out = space.low()[i] + (f64::from(*a) + 1.0) * 0.5 * (space.high()[i] - space.low()[i]);
-            }
+            // [-1, 1] -> the action bounds, as the trainer does.
+            space.unscale(&self.action, &mut self.env_action);
             let step = self.demo_env.step(&self.env_action)?;
             self.recorder.step(&self.env_action, step.reward, &step.obs)?;
             if step.done() {
                 // SPEC section 6: crashed = the environment terminated it before the horizon.
-                self.recorder.finish(&mut self.pool, step.terminated)?;
-                self.sources.push(after_episode);
+                self.candidates.add(&mut self.recorder, step.terminated, after_episode)?;
                 return Ok(());
             }
             obs = step.obs;
         }
     }
-
-    /// N of each group at evenly spaced positions of the candidates, in the order they were made.
-    fn select(&self, training_steps: u64) -> Result<EpisodeSet> {
-        let (safe, unsafe_) = self.pool.group_sizes();
-        if safe < self.args.safe || unsafe_ < self.args.unsafe_ {
-            bail!(
-                "{}: after {training_steps} training steps only {safe} safe and {unsafe_} unsafe candidates \
-                 (asked {} and {}); raise --max-steps or ask for fewer",
-                self.args.env,
-                self.args.safe,
-                self.args.unsafe_
-            );
-        }
-        let by_group = |crashed: bool| -> Vec<usize> {
-            (0..self.pool.len()).filter(|&i| self.pool.episode(i).crashed == crashed).collect()
-        };
-        let mut chosen: Vec<usize> = spread(&by_group(false), self.args.safe);
-        chosen.extend(spread(&by_group(true), self.args.unsafe_));
-        chosen.sort_unstable();
-        let mut meta = self.pool.meta().clone();
-        meta.provenance = Some(format!(
-            "defender demos collect: SAC (seed {}) trained {training_steps} steps; after every training \
-             episode that ended past its {} random steps, one episode of the deterministic policy was \
-             recorded ({} candidates)",
-            self.args.seed,
-            self.learning_starts,
-            self.pool.len()
-        ));
-        meta.extra.insert(
-            "selection".into(),
-            "per group, evenly spaced positions (first and last included) among the candidates in order"
-                .into(),
-        );
-        meta.extra.insert(
-            "source_training_episodes".into(),
-            chosen.iter().map(|&i| self.sources[i]).collect::<Vec<u64>>().into(),
-        );
-        meta.extra.insert("training_steps".into(), training_steps.into());
-        meta.extra.insert("learning_starts".into(), self.learning_starts.into());
-        let mut set = EpisodeSet::new(self.pool.obs_dim(), self.pool.act_dim(), meta)?;
-        for i in chosen {
-            let e = self.pool.episode(i);
-            set.push_episode(e.obs, e.act, e.rew, e.crashed)?;
-        }
-        Ok(set)
-    }
-}
-
-/// `n` indices of `items` at evenly spaced positions, first and last included (`n <= len`).
-fn spread(items: &[usize], n: usize) -> Vec<usize> {
-    if n == 1 {
-        return vec![items[items.len() - 1]];
-    }
-    (0..n).map(|k| items[(k * (items.len() - 1) + (n - 1) / 2) / (n - 1)]).collect()
 }
 
 impl Hooks for Collector<'_> {
@@ -255,14 +194,14 @@ impl Hooks for Collector<'_> {
     }
 
     fn after_episode(&mut self, record: &EpisodeRecord, agent: &mut dyn Agent) -> Result<(), HookError> {
-        if record.total_steps <= self.learning_starts {
-            // The untrained policy: the same demonstration every time (module docs).
+        if !self.candidates.is_candidate(record.total_steps) {
+            // The untrained policy: the same demonstration every time (`defender::collection`).
             self.bar
                 .set_message(format!("random steps until {} (SAC's learning_starts)", self.learning_starts));
             return Ok(());
         }
         self.demonstrate(record.episode, agent)?;
-        let (safe, unsafe_) = self.pool.group_sizes();
+        let (safe, unsafe_) = self.candidates.group_sizes();
         self.bar.set_message(format!(
             "safe {safe}/{} unsafe {unsafe_}/{} (last training return {:.0})",
             self.args.safe, self.args.unsafe_, record.episode_return
@@ -271,22 +210,6 @@ impl Hooks for Collector<'_> {
     }
 
     fn should_stop(&mut self) -> bool {
-        self.enough()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::spread;
-
-    #[test]
-    fn spread_takes_distinct_evenly_spaced_items_with_both_ends() {
-        let items: Vec<usize> = (0..10).collect();
-        assert_eq!(spread(&items, 10), items);
-        assert_eq!(spread(&items, 2), vec![0, 9]);
-        assert_eq!(spread(&items, 4), vec![0, 3, 6, 9]);
-        assert_eq!(spread(&items, 1), vec![9]);
-        let s = spread(&items, 7);
-        assert!(s.windows(2).all(|w| w[0] < w[1]) && s[0] == 0 && s[6] == 9);
+        self.candidates.enough(self.total_steps)
     }
 }

@@ -12,6 +12,7 @@ use defender::{EpisodeSet, Mode};
 use defender_report::StrategySelection;
 
 use crate::progress;
+use crate::text_table::{Column, TextTable};
 
 /// Arguments of `defender select`.
 #[derive(Debug, Args)]
@@ -141,24 +142,29 @@ fn run_selection(
 }
 
 fn print_top(rows: &[StrategyScore], top: usize) {
-    let width = rows.iter().take(top).map(|r| r.strategy.to_string().len()).max().unwrap_or(8).max(8);
-    println!(
-        "{:>4}  {:<width$}  {:>11}  {:>10}  {:>12}  {:>9}  {:>8}  {:>8}",
-        "rank", "strategy", "false_alarm", "prevention", "safe_allowed", "mean_lead", "ablation", "score"
-    );
+    let mut table = TextTable::new(vec![
+        Column::right("rank"),
+        Column::left("strategy"),
+        Column::right("false_alarm"),
+        Column::right("prevention"),
+        Column::right("safe_allowed"),
+        Column::right("mean_lead"),
+        Column::right("ablation"),
+        Column::right("score").min_width(8),
+    ]);
     for r in rows.iter().take(top) {
-        println!(
-            "{:>4}  {:<width$}  {:>11.4}  {:>10.4}  {:>12.4}  {:>9.1}  {:>8}  {:>8.4}",
-            r.rank,
+        table.row([
+            r.rank.to_string(),
             r.strategy.to_string(),
-            r.false_alarm_rate,
-            r.crash_prevention_rate,
-            r.safe_allowed,
-            r.mean_lead,
+            format!("{:.4}", r.false_alarm_rate),
+            format!("{:.4}", r.crash_prevention_rate),
+            format!("{:.4}", r.safe_allowed),
+            format!("{:.1}", r.mean_lead),
             r.ablation_score.map_or("-".to_string(), |v| format!("{v:.4}")),
-            r.score
-        );
+            format!("{:.4}", r.score),
+        ]);
     }
+    print!("{}", table.render());
 }
 
 /// `strategy = "auto"` in a run: chooses the strategy on the run's demonstrations (its

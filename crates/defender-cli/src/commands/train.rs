@@ -4,17 +4,19 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use defender_report::Summary;
+use defender::Mode;
+use defender::selection::StrategyChoice;
+use defender_report::{OutcomeCounts, Summary};
 use defender_rl::{
-    Agent, Algo, AlgoConfig, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, Outcome, RunEnd,
-    Trainer, TrainerConfig, Transition,
+    Agent, Algo, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, RunEnd, Trainer, TrainerConfig,
+    Transition,
 };
-use serde::{Deserialize, Serialize};
 
 use crate::progress;
 use crate::resume;
+use crate::run_config::{DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config};
 use crate::run_dir::{self, RunDir};
-use crate::setup::{self, DefenderSection, TrainingRecorder};
+use crate::setup::{self, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
 use crate::update_log::{self, UpdateLog};
 
@@ -41,8 +43,8 @@ pub struct TrainArgs {
     pub algo: Option<Algo>,
     /// A DEFENDER strategy SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10), or `auto` to choose one from
     /// the demonstrations first (`defender select`); none trains the bare algorithm.
-    #[arg(long)]
-    pub strategy: Option<String>,
+    #[arg(long, value_parser = parse_strategy)]
+    pub strategy: Option<StrategyChoice>,
     /// Demonstration set (.npz, SPEC section 8); default: the one shipped for the task.
     #[arg(long)]
     pub demos: Option<PathBuf>,
@@ -50,8 +52,8 @@ pub struct TrainArgs {
     #[arg(long)]
     pub num_demos: Option<usize>,
     /// Trajectory elements: states, or state-action pairs.
-    #[arg(long, value_parser = ["state", "state-action"])]
-    pub mode: Option<String>,
+    #[arg(long, value_parser = parse_mode)]
+    pub mode: Option<Mode>,
     /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
     #[arg(long, allow_negative_numbers = true)]
     pub r_task: Option<f64>,
@@ -97,80 +99,12 @@ fn parse_algo(s: &str) -> Result<Algo, String> {
     s.parse().map_err(|_| format!("unknown algorithm '{s}'; expected sac or td3"))
 }
 
-/// The resolved configuration of a run: written to `config.toml`, readable by `--config`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RunConfig {
-    /// Gymnasium id.
-    pub env: String,
-    /// `sac` or `td3`.
-    pub algo: Algo,
-    /// The run's seed.
-    #[serde(default)]
-    pub seed: u64,
-    /// Budget in environment steps (0 when the budget is in episodes).
-    #[serde(default)]
-    pub total_steps: u64,
-    /// Budget in episodes (0 when the budget is in steps).
-    #[serde(default)]
-    pub total_episodes: u64,
-    /// Evaluate every this many steps (0: only the final evaluation).
-    #[serde(default)]
-    pub eval_freq: u64,
-    /// Episodes per periodic evaluation.
-    #[serde(default = "five")]
-    pub eval_episodes: usize,
-    /// Checkpoint every this many episodes (0: only by time, at the end and on stop).
-    #[serde(default)]
-    pub checkpoint_every_episodes: u64,
-    /// Checkpoint at the first episode end this many wall-clock seconds after the last
-    /// checkpoint (0: never by time), so that a kill -9 loses at most about that much work.
-    #[serde(default = "default_checkpoint_seconds")]
-    pub checkpoint_every_seconds: u64,
-    /// Where the training episodes are saved as an episode set, if anywhere.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub record_episodes: Option<PathBuf>,
-    /// DEFENDER's settings; absent for a bare run.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub defender: Option<DefenderSection>,
-    /// SAC hyperparameters (used when `algo = "sac"`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sac: Option<defender_rl::SacConfig>,
-    /// TD3 hyperparameters (used when `algo = "td3"`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub td3: Option<defender_rl::Td3Config>,
+fn parse_strategy(s: &str) -> Result<StrategyChoice, String> {
+    s.parse().map_err(|e: defender::DefenderError| e.to_string())
 }
 
-fn five() -> usize {
-    5
-}
-
-/// Checkpoints every 2 minutes by default: a checkpoint of a 100k-step run takes well under a
-/// second, and a scheduler's kill -9 then loses at most about 2 minutes of training.
-fn default_checkpoint_seconds() -> u64 {
-    120
-}
-
-impl RunConfig {
-    fn budget(&self) -> Result<Budget> {
-        match (self.total_steps, self.total_episodes) {
-            (0, 0) => bail!("no budget: give --steps N or --episodes N (or total_steps / total_episodes)"),
-            (s, 0) => Ok(Budget::Steps(s)),
-            (0, e) => Ok(Budget::Episodes(e)),
-            _ => bail!("give a budget in steps or in episodes, not both"),
-        }
-    }
-}
-
-/// Reads a TOML run configuration, refusing unknown keys.
-pub fn read_config(path: &Path) -> Result<RunConfig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
-}
-
-/// Parses a run configuration from TOML text, refusing unknown keys.
-pub fn read_config_str(text: &str) -> Result<RunConfig> {
-    Ok(toml::from_str(text)?)
+fn parse_mode(s: &str) -> Result<Mode, String> {
+    s.parse().map_err(|e: defender::DefenderError| e.to_string())
 }
 
 /// Resolves flags over an optional configuration file.
@@ -235,14 +169,14 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         || args.r_task.is_some()
         || args.dynamics_thread;
     if wants_defender && config.defender.is_none() {
-        let strategy = args.strategy.as_deref().context(
+        let strategy = args.strategy.context(
             "--demos, --num-demos, --mode, --r-task and --dynamics-thread configure DEFENDER: give \
              --strategy SAFE/UNSAFE too",
         )?;
-        config.defender = Some(DefenderSection::new(strategy.parse().context("--strategy")?));
+        config.defender = Some(DefenderSection::new(strategy));
     }
     if let Some(section) = &mut config.defender {
-        section.apply_flags(args)?;
+        apply_defender_flags(section, args);
     }
     match config.algo {
         Algo::Sac => {
@@ -258,12 +192,29 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     Ok(config)
 }
 
-impl RunConfig {
-    fn algo_config(&self) -> AlgoConfig {
-        match self.algo {
-            Algo::Sac => AlgoConfig::Sac(self.sac.clone().unwrap_or_default()),
-            Algo::Td3 => AlgoConfig::Td3(self.td3.clone().unwrap_or_default()),
+/// Applies the flags that configure DEFENDER over a `[defender]` section.
+fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
+    if let Some(choice) = args.strategy {
+        // `auto` over a strategy already chosen automatically (a resumed run) keeps the choice.
+        if !(choice == StrategyChoice::Auto && section.selection.is_some()) {
+            section.strategy = choice;
+            section.selection = None;
         }
+    }
+    if let Some(mode) = args.mode {
+        section.mode = mode;
+    }
+    if args.r_task.is_some() {
+        section.r_task = args.r_task;
+    }
+    if args.num_demos.is_some() {
+        section.num_demos = args.num_demos;
+    }
+    if args.demos.is_some() {
+        section.demos.clone_from(&args.demos);
+    }
+    if args.dynamics_thread {
+        section.dynamics.background = true;
     }
 }
 
@@ -291,7 +242,10 @@ pub fn run(args: TrainArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_mut())?;
+    let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_ref())?;
+    // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
+    // records.
+    config.defender = built.defender;
     if let Some(path) = &config.record_episodes {
         run_dir::check_writable(path).context("--record-episodes")?;
     }
@@ -365,7 +319,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 
 fn print_summary(out: &Path, s: &Summary, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
-    let what = s.strategy.as_deref().map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
+    let what = s.strategy.map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
     println!(
         "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
@@ -392,9 +346,8 @@ struct TrainHooks {
     bar: indicatif::ProgressBar,
     by_steps: bool,
     stop: StopRequest,
-    crashed: u64,
-    filtered: u64,
-    episodes: u64,
+    /// The episodes so far, for the progress line.
+    counts: OutcomeCounts,
     recorder: Option<TrainingRecorder>,
     updates: UpdateLog,
     error: Option<anyhow::Error>,
@@ -418,9 +371,7 @@ impl TrainHooks {
             bar: progress::bar(total, unit),
             by_steps,
             stop,
-            crashed: 0,
-            filtered: 0,
-            episodes: 0,
+            counts: OutcomeCounts::default(),
             recorder,
             updates: UpdateLog::default(),
             error: None,
@@ -431,19 +382,10 @@ impl TrainHooks {
     fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
         self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals, steps)?;
         for r in episodes {
-            self.count(r);
+            self.counts.add(r.outcome());
         }
         self.bar.set_position(if self.by_steps { steps } else { episodes.len() as u64 });
         Ok(())
-    }
-
-    fn count(&mut self, r: &EpisodeRecord) {
-        self.episodes += 1;
-        match r.outcome() {
-            Outcome::Crashed => self.crashed += 1,
-            Outcome::Filtered => self.filtered += 1,
-            Outcome::Truncated => {}
-        }
     }
 
     fn write_summary<A: Agent, E: Env, V: Env>(
@@ -454,27 +396,24 @@ impl TrainHooks {
         let defender = self.config.defender.as_ref();
         let mut summary = Summary {
             env: self.config.env.clone(),
-            algo: self.config.algo.as_str().to_string(),
+            algo: self.config.algo,
             seed: self.config.seed,
-            strategy: defender.map(|d| d.strategy.to_string()),
-            mode: defender.map(|d| d.mode.to_string()),
+            // `auto` is resolved before the run is built: the summary names the strategy used.
+            strategy: defender.and_then(|d| d.strategy.fixed()),
+            mode: defender.map(|d| d.mode),
             acc_reward: final_eval.map(|e| e.mean_return),
             crash_pct: 0.0,
             filtered_pct: 0.0,
             episodes: 0,
             steps: trainer.total_steps(),
             // A filtered step always ends its episode: one per filtered episode.
-            filtered_steps: self.filtered,
+            filtered_steps: self.counts.filtered,
             wall_seconds: trainer.wall_seconds(),
             steps_per_second: 0.0,
             complete: final_eval.is_some(),
             selection: defender.and_then(|d| d.selection.clone()),
         };
-        summary.count(trainer.episodes().iter().map(|r| match r.outcome() {
-            Outcome::Crashed => defender_report::Outcome::Crashed,
-            Outcome::Filtered => defender_report::Outcome::Filtered,
-            Outcome::Truncated => defender_report::Outcome::Truncated,
-        }));
+        summary.count(trainer.episodes().iter().map(EpisodeRecord::outcome));
         self.run_dir.write_summary(&summary)?;
         Ok(summary)
     }
@@ -507,21 +446,20 @@ impl Hooks for TrainHooks {
         if let Some(error) = self.error.take() {
             return Err(error.into());
         }
-        self.count(record);
+        self.counts.add(record.outcome());
         self.run_dir.append_episode(record)?;
         if let Some(recorder) = &mut self.recorder {
             recorder.end_episode(record)?;
         }
         if !self.by_steps {
-            self.bar.set_position(self.episodes);
+            self.bar.set_position(self.counts.episodes);
         }
-        let n = self.episodes.max(1) as f64;
         self.bar.set_message(format!(
             "ep {} return {:.0} crash {:.1}% filtered {:.1}%",
             record.episode,
             record.episode_return,
-            100.0 * self.crashed as f64 / n,
-            100.0 * self.filtered as f64 / n
+            self.counts.crash_pct(),
+            self.counts.filtered_pct()
         ));
         Ok(())
     }

@@ -30,7 +30,7 @@ use defender_rl::Algo;
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::commands::train::{RunConfig, read_config_str};
+use crate::run_config::{RunConfig, read_config_str};
 
 /// The file as written.
 #[derive(Debug, Deserialize)]

@@ -2,7 +2,7 @@
 
 use crate::error::{DtwError, Result, check_sequence};
 use crate::kernel::{self, Problem, RevSeq};
-use crate::lanes::Isa;
+use crate::lanes::isa;
 
 /// How to align two sequences: Euclidean local cost, steps (1,0), (0,1), (1,1) of weight 1
 /// (SPEC section 2), plus the optional Sakoe-Chiba band and early-abandon threshold.
@@ -99,16 +99,4 @@ pub fn dtw(x: &[f32], y: &[f32], dim: usize, settings: &Dtw) -> Result<f32> {
         max_cost: settings.threshold(),
     };
     Ok(kernel::dtw_cost(isa(), &problem, &mut Vec::new()))
-}
-
-/// The instruction set DTW uses: this CPU's best, detected once per process, unless this thread
-/// forces another one ([`crate::kernels::with_kernel`], for tests).
-pub(crate) fn isa() -> Isa {
-    crate::kernels::forced().unwrap_or_else(detected)
-}
-
-/// This CPU's best instruction set, detected once per process.
-pub(crate) fn detected() -> Isa {
-    static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
-    *ISA.get_or_init(Isa::detect)
 }

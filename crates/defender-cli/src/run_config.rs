@@ -1,0 +1,235 @@
+//! A run's configuration: the format of `config.toml` (and of the pinned copy in a checkpoint,
+//! `extra/run_config.toml`, and of `--config` files). Unknown keys are refused.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use defender::DefenderConfig;
+use defender::selection::StrategyChoice;
+use defender_rl::{Algo, AlgoConfig, Budget};
+use serde::{Deserialize, Serialize};
+
+/// The resolved configuration of a run: written to `config.toml`, readable by `--config`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Gymnasium id.
+    pub env: String,
+    /// `sac` or `td3`.
+    pub algo: Algo,
+    /// The run's seed.
+    #[serde(default)]
+    pub seed: u64,
+    /// Budget in environment steps (0 when the budget is in episodes).
+    #[serde(default)]
+    pub total_steps: u64,
+    /// Budget in episodes (0 when the budget is in steps).
+    #[serde(default)]
+    pub total_episodes: u64,
+    /// Evaluate every this many steps (0: only the final evaluation).
+    #[serde(default)]
+    pub eval_freq: u64,
+    /// Episodes per periodic evaluation.
+    #[serde(default = "five")]
+    pub eval_episodes: usize,
+    /// Checkpoint every this many episodes (0: only by time, at the end and on stop).
+    #[serde(default)]
+    pub checkpoint_every_episodes: u64,
+    /// Checkpoint at the first episode end this many wall-clock seconds after the last
+    /// checkpoint (0: never by time), so that a kill -9 loses at most about that much work.
+    #[serde(default = "default_checkpoint_seconds")]
+    pub checkpoint_every_seconds: u64,
+    /// Where the training episodes are saved as an episode set, if anywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub record_episodes: Option<PathBuf>,
+    /// DEFENDER's settings; absent for a bare run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defender: Option<DefenderSection>,
+    /// SAC hyperparameters (used when `algo = "sac"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sac: Option<defender_rl::SacConfig>,
+    /// TD3 hyperparameters (used when `algo = "td3"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub td3: Option<defender_rl::Td3Config>,
+}
+
+pub(crate) fn five() -> usize {
+    5
+}
+
+/// Checkpoints every 2 minutes by default: a checkpoint of a 100k-step run takes well under a
+/// second, and a scheduler's kill -9 then loses at most about 2 minutes of training.
+pub(crate) fn default_checkpoint_seconds() -> u64 {
+    120
+}
+
+impl RunConfig {
+    /// The training budget.
+    ///
+    /// # Errors
+    /// None, or both, of `total_steps` and `total_episodes`.
+    pub fn budget(&self) -> Result<Budget> {
+        match (self.total_steps, self.total_episodes) {
+            (0, 0) => bail!("no budget: give --steps N or --episodes N (or total_steps / total_episodes)"),
+            (s, 0) => Ok(Budget::Steps(s)),
+            (0, e) => Ok(Budget::Episodes(e)),
+            _ => bail!("give a budget in steps or in episodes, not both"),
+        }
+    }
+}
+
+/// Reads a TOML run configuration, refusing unknown keys.
+pub fn read_config(path: &Path) -> Result<RunConfig> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
+}
+
+/// Parses a run configuration from TOML text, refusing unknown keys.
+pub fn read_config_str(text: &str) -> Result<RunConfig> {
+    Ok(toml::from_str(text)?)
+}
+
+impl RunConfig {
+    /// The agent's configuration.
+    pub fn algo_config(&self) -> AlgoConfig {
+        match self.algo {
+            Algo::Sac => AlgoConfig::Sac(self.sac.clone().unwrap_or_default()),
+            Algo::Td3 => AlgoConfig::Td3(self.td3.clone().unwrap_or_default()),
+        }
+    }
+}
+
+/// The `[defender]` section of a run configuration.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DefenderSection {
+    /// `SAFE/UNSAFE` (SPEC section 3), or `auto` in a configuration given to `defender train`
+    /// (chosen before training; `config.toml` then holds the choice and `selection`).
+    pub strategy: StrategyChoice,
+    /// `state` or `state-action`.
+    #[serde(default)]
+    pub mode: defender::Mode,
+    /// The reward of a filtered step; resolved (from the demonstrations if not given) and saved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r_task: Option<f64>,
+    /// Demonstrations per group (`None`: all of the file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub num_demos: Option<usize>,
+    /// The demonstration set; `None`: the one shipped for the task.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demos: Option<PathBuf>,
+    /// SHA-256 of the demonstration file's bytes, pinned when the run starts: a resumed run (or a
+    /// configuration given with it) refuses a file whose content differs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demos_sha256: Option<String>,
+    /// Options of the alignment cost (SPEC section 2; off by default).
+    #[serde(default)]
+    pub cost: defender::CostOptions,
+    /// The dynamics model (SPEC section 5).
+    #[serde(default)]
+    pub dynamics: defender::DynamicsConfig,
+    /// How `strategy = "auto"` chose the strategy (`[defender.selection]`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<defender_report::StrategySelection>,
+}
+
+impl DefenderSection {
+    /// A section with defaults for `strategy`.
+    pub fn new(strategy: StrategyChoice) -> Self {
+        Self {
+            strategy,
+            mode: defender::Mode::default(),
+            r_task: None,
+            num_demos: None,
+            demos: None,
+            demos_sha256: None,
+            cost: Default::default(),
+            dynamics: Default::default(),
+            selection: None,
+        }
+    }
+
+    /// The method crate's configuration.
+    pub fn to_config(&self) -> Result<DefenderConfig> {
+        Ok(DefenderConfig {
+            strategy: self.strategy.fixed().context("strategy \"auto\" is chosen before the run is built")?,
+            mode: self.mode,
+            num_demos: self.num_demos,
+            r_task: self.r_task,
+            cost: self.cost,
+            dynamics: self.dynamics.clone(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `config.toml` written by an earlier version (results/table1, before `demos_sha256`,
+    /// `checkpoint_every_seconds` and the pinned copy existed).
+    const TABLE1_IDP: &str = include_str!("../tests/fixtures/idp-run/config.toml");
+
+    /// Every key of `value` as `dotted.key = value` pairs.
+    fn pairs(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::Value)>) {
+        match value {
+            toml::Value::Table(t) => {
+                for (k, v) in t {
+                    pairs(&if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") }, v, out);
+                }
+            }
+            other => out.push((prefix.to_string(), other.clone())),
+        }
+    }
+
+    #[test]
+    fn a_saved_config_parses_to_the_same_settings() {
+        let config = read_config_str(TABLE1_IDP).unwrap();
+        assert_eq!(config.env, "InvertedDoublePendulum-v5");
+        assert_eq!(config.algo, Algo::Sac);
+        assert_eq!(config.budget().unwrap(), Budget::Steps(30_000));
+        assert_eq!(config.checkpoint_every_seconds, 120);
+        let section = config.defender.as_ref().unwrap();
+        assert_eq!(section.strategy.to_string(), "MeanDemoW5/MeanDemoW10");
+        assert_eq!(section.mode, defender::Mode::State);
+        assert_eq!(section.r_task, Some(-1.4209696054458618));
+        assert_eq!(section.num_demos, Some(50));
+        assert!(section.demos_sha256.is_none() && section.selection.is_none());
+        let method = section.to_config().unwrap();
+        assert_eq!(method.strategy.to_string(), "MeanDemoW5/MeanDemoW10");
+        assert_eq!(method.dynamics.batch_size, 256);
+
+        // Written back, every key of the file keeps its value; the only additions are defaults
+        // of keys the file predates.
+        let file: toml::Value = toml::from_str(TABLE1_IDP).unwrap();
+        // As config.toml holds it: through the text (f32 settings are written in their shortest form).
+        let text = toml::to_string_pretty(&config).unwrap();
+        let written: toml::Value = toml::from_str(&text).unwrap();
+        let (mut before, mut after) = (Vec::new(), Vec::new());
+        pairs("", &file, &mut before);
+        pairs("", &written, &mut after);
+        for (key, value) in &before {
+            assert_eq!(after.iter().find(|(k, _)| k == key).map(|(_, v)| v), Some(value), "{key}");
+        }
+        let added: Vec<&str> = after
+            .iter()
+            .filter(|(k, _)| !before.iter().any(|(b, _)| b == k))
+            .map(|(k, _)| k.as_str())
+            .collect();
+        assert_eq!(added, ["checkpoint_every_seconds"]);
+        // And it reads back as itself (the pinned copy in a checkpoint is this text).
+        let again = read_config_str(&text).unwrap();
+        assert_eq!(toml::to_string_pretty(&again).unwrap(), text);
+    }
+
+    #[test]
+    fn auto_and_unknown_keys() {
+        let auto = TABLE1_IDP.replace("\"MeanDemoW5/MeanDemoW10\"", "\"auto\"");
+        let config = read_config_str(&auto).unwrap();
+        assert_eq!(config.defender.as_ref().unwrap().strategy, StrategyChoice::Auto);
+        assert!(config.defender.unwrap().to_config().is_err());
+        let unknown = TABLE1_IDP.replace("mode = \"state\"", "mode = \"state\"\nwindow = 5");
+        let err = format!("{:#}", read_config_str(&unknown).unwrap_err());
+        assert!(err.contains("window"), "{err}");
+    }
+}
