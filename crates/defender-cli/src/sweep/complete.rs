@@ -15,7 +15,7 @@ use anyhow::{Result, bail};
 
 use super::experiment::PlannedRun;
 use super::runner::{RunState, state_of};
-use crate::commands::train::{RunConfig, read_config};
+use crate::run_config::{RunConfig, read_config};
 
 /// Settings that say where and how often a run saves its work, not what it computes: they may
 /// differ (e.g. `record_episodes` is an absolute path inside the sweep directory, which moves
