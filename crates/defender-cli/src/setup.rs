@@ -97,6 +97,12 @@ impl DefenderSection {
         if args.dynamics_thread {
             self.dynamics.background = true;
         }
+        if args.dynamics_spec_schedule {
+            let spec = defender::DynamicsConfig::spec_schedule();
+            let d = &mut self.dynamics;
+            (d.train_freq, d.gradient_steps, d.batch_size, d.learning_rate) =
+                (spec.train_freq, spec.gradient_steps, spec.batch_size, spec.learning_rate);
+        }
         Ok(())
     }
 }
@@ -121,6 +127,8 @@ pub struct Built {
     pub env: Box<dyn Env>,
     /// The evaluation environment (never filtered: SPEC section 6).
     pub eval_env: Box<dyn Env>,
+    /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
+    pub dynamics: Option<defender::DynamicsHandle>,
 }
 
 /// Builds the agent and the environments of a run; resolves `R_task` and the demonstration path
@@ -136,7 +144,7 @@ pub fn build(
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
     let agent = algo.build(obs_dim, act_dim, seed)?;
     let Some(section) = section else {
-        return Ok(Built { agent, env: Box::new(task), eval_env });
+        return Ok(Built { agent, env: Box::new(task), eval_env, dynamics: None });
     };
     let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
     if !path.exists() && section.demos.is_none() {
@@ -172,7 +180,8 @@ pub fn build(
     if section.num_demos.is_none() {
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
-    Ok(Built { agent, env: Box::new(wrapped), eval_env })
+    let dynamics = Some(wrapped.dynamics_handle());
+    Ok(Built { agent, env: Box::new(wrapped), eval_env, dynamics })
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

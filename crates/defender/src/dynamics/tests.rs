@@ -13,6 +13,7 @@ fn small_config() -> DynamicsConfig {
         batch_size: 64,
         buffer_size: 5000,
         learning_rate: 1e-3,
+        train_freq: 1,
         ..Default::default()
     }
 }
