@@ -61,9 +61,10 @@ impl RunDir {
             Self::start_csv(&root.join(METRICS_FILE), METRICS_HEADER, episodes.iter().map(metrics_row))?;
         let eval = Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(eval_row))?;
         let updates = Self::restart_csv(&root.join(UPDATES_FILE), UPDATES_HEADER, total_steps)?;
-        let dynamics = match dynamics {
-            true => Some(Self::restart_csv(&root.join(DYNAMICS_FILE), DYNAMICS_HEADER, total_steps)?),
-            false => None,
+        let dynamics = if dynamics {
+            Some(Self::restart_csv(&root.join(DYNAMICS_FILE), DYNAMICS_HEADER, total_steps)?)
+        } else {
+            None
         };
         Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics })
     }

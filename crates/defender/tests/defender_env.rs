@@ -347,9 +347,12 @@ fn a_background_dynamics_model_checkpoints_and_resumes() {
 /// What one agent saw and did in a DEFENDER run: every transition it stored (obs, action,
 /// reward, terminated, truncated, next obs), every update's statistics, every episode and
 /// evaluation, the final policy's actions on probe states, and the DEFENDER counters.
+/// A stored transition as bits: obs, action, reward, terminated, truncated, next obs.
+type TransitionBits = (Vec<u64>, Vec<u32>, u64, bool, bool, Vec<u64>);
+
 #[derive(Default)]
 struct AgentLog {
-    transitions: Vec<(Vec<u64>, Vec<u32>, u64, bool, bool, Vec<u64>)>,
+    transitions: Vec<TransitionBits>,
     updates: Vec<defender_rl::UpdateStats>,
 }
 

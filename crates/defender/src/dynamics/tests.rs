@@ -125,7 +125,7 @@ fn to_legacy_format(m: &DynamicsModel, dir: &std::path::Path, transitions: &[(Ve
     let (mut obs, mut act, mut next) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..len {
         // Ring row i holds the latest transition t with t % cap == i.
-        let t = (i..transitions.len()).step_by(cap).last().unwrap();
+        let t = (i..transitions.len()).step_by(cap).next_back().unwrap();
         obs.extend(transitions[t].0.iter().map(|&v| v as f32));
         act.push(transitions[t].1 as f32);
         next.extend(transitions[t].2.iter().map(|&v| v as f32));
