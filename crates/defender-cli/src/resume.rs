@@ -33,25 +33,43 @@ fn pairs<T: serde::Serialize>(config: &T) -> Result<Vec<(String, toml::Value)>> 
     Ok(out.into_iter().filter(|(k, _)| !BUDGET_KEYS.contains(&k.as_str())).collect())
 }
 
+/// Settings whose default changed while runs were in progress, as `(key, the value the former
+/// default gave, the current default)`: the dynamics model's schedule, SPEC section 5's until
+/// the cheaper default (docs/decisions.md). A run started before keeps its own value (its
+/// `config.toml` and pinned configuration hold it explicitly); a request that carries only the
+/// current default (as a sweep re-expanding its experiment with today's defaults does) is not a
+/// change of that run.
+fn changed_defaults() -> Result<Vec<(String, toml::Value, toml::Value)>> {
+    let former = pairs(&defender::DynamicsConfig::spec_schedule())?;
+    let current = pairs(&defender::DynamicsConfig::default())?;
+    Ok(former
+        .into_iter()
+        .zip(current)
+        .filter(|((_, f), (_, c))| f != c)
+        .map(|((key, f), (_, c))| (format!("defender.dynamics.{key}"), f, c))
+        .collect())
+}
+
 /// The settings in which `requested` differs from `saved`, as `key: saved -> requested` lines.
-/// A key `requested` leaves out is not a difference when `lenient_missing` (values the run
-/// resolved itself, such as `r_task`, are absent from what a user asks for).
-pub fn differences<T: serde::Serialize>(
-    saved: &T,
-    requested: &T,
-    lenient_missing: bool,
-) -> Result<Vec<String>> {
+/// When `request` (what a user asks of a saved run, not what a checkpoint pins): a key
+/// `requested` leaves out is not a difference (values the run resolved itself, such as `r_task`,
+/// are absent from what a user asks for), nor is a changed default (see `changed_defaults`).
+pub fn differences<T: serde::Serialize>(saved: &T, requested: &T, request: bool) -> Result<Vec<String>> {
     let saved = pairs(saved)?;
     let requested = pairs(requested)?;
+    let changed = changed_defaults()?;
+    let former_default = |key: &str, old: Option<&toml::Value>, new: &toml::Value| {
+        request && changed.iter().any(|(k, f, c)| k == key && old == Some(f) && new == c)
+    };
     let show = |v: Option<&toml::Value>| v.map_or("(unset)".to_string(), ToString::to_string);
     let mut diffs = Vec::new();
     for (key, value) in &requested {
         let old = saved.iter().find(|(k, _)| k == key).map(|(_, v)| v);
-        if old != Some(value) {
+        if old != Some(value) && !former_default(key, old, value) {
             diffs.push(format!("{key}: {} -> {}", show(old), show(Some(value))));
         }
     }
-    if !lenient_missing {
+    if !request {
         for (key, value) in &saved {
             if !requested.iter().any(|(k, _)| k == key) {
                 diffs.push(format!("{key}: {} -> (unset)", show(Some(value))));
@@ -105,4 +123,44 @@ pub fn check_pinned<T: serde::Serialize + serde::de::DeserializeOwned>(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `[defender.dynamics]` section with `key = value` over SPEC's schedule.
+    fn dynamics(key: &str, value: &toml::Value) -> toml::Value {
+        let mut d = toml::Value::try_from(defender::DynamicsConfig::spec_schedule()).unwrap();
+        d.as_table_mut().unwrap().insert(key.into(), value.clone());
+        let mut defender = toml::Table::new();
+        defender.insert("dynamics".into(), d);
+        let mut root = toml::Table::new();
+        root.insert("defender".into(), toml::Value::Table(defender));
+        toml::Value::Table(root)
+    }
+
+    /// A run started when SPEC's schedule was the default resumes when a request carries today's
+    /// default (a sweep re-expanding its experiment), keeping its own schedule; any other value
+    /// is refused, and a checkpoint's pinned configuration is compared strictly.
+    #[test]
+    fn a_run_started_under_the_former_default_schedule_resumes_with_it() {
+        let changed = changed_defaults().unwrap();
+        assert!(!changed.is_empty(), "the default schedule differs from SPEC's");
+        for (key, former, current) in changed {
+            let field = key.rsplit('.').next().unwrap();
+            let saved = dynamics(field, &former);
+            let dir = Path::new("run");
+            refuse_changes(dir, &saved, &dynamics(field, &current)).unwrap();
+            let other = match &current {
+                toml::Value::Integer(v) => toml::Value::Integer(v + 1),
+                toml::Value::Float(v) => toml::Value::Float(v * 2.0),
+                v => panic!("{key}: unexpected {v}"),
+            };
+            let err = refuse_changes(dir, &saved, &dynamics(field, &other)).unwrap_err().to_string();
+            assert!(err.contains(&key), "{err}");
+            let strict = differences(&saved, &dynamics(field, &current), false).unwrap();
+            assert_eq!(strict.len(), 1, "{strict:?}");
+        }
+    }
 }

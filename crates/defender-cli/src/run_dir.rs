@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use defender_report::{
-    CONFIG_FILE, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE,
-    Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
+    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE,
+    METRICS_HEADER, SUMMARY_FILE, Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
 };
 use defender_rl::{EpisodeRecord, EvalRecord};
 use serde::Serialize;
@@ -46,25 +46,39 @@ pub struct RunDir {
     metrics: File,
     eval: File,
     updates: File,
+    dynamics: Option<File>,
 }
 
 impl RunDir {
     /// Creates `root` (if needed) and starts `metrics.csv` and `eval.csv` with the rows already
-    /// known (none for a new run; the checkpoint's for a resumed one); `updates.csv` keeps its
-    /// rows up to the checkpoint's `total_steps` (those after it are trained again).
+    /// known (none for a new run; the checkpoint's for a resumed one); `updates.csv` (and
+    /// `dynamics.csv` for a DEFENDER run, `dynamics`) keeps its rows up to the checkpoint's
+    /// `total_steps` (those after it are trained again).
     pub fn create(
         root: &Path,
         episodes: &[EpisodeRecord],
         evals: &[EvalRecord],
         total_steps: u64,
+        dynamics: bool,
     ) -> Result<Self> {
         std::fs::create_dir_all(root)
             .with_context(|| format!("cannot create run directory {}", root.display()))?;
         let metrics =
             Self::start_csv(&root.join(METRICS_FILE), METRICS_HEADER, episodes.iter().map(metrics_row))?;
         let eval = Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(eval_row))?;
-        let updates_path = root.join(UPDATES_FILE);
-        let kept: Vec<String> = std::fs::read_to_string(&updates_path)
+        let updates = Self::restart_csv(&root.join(UPDATES_FILE), UPDATES_HEADER, total_steps)?;
+        let dynamics = if dynamics {
+            Some(Self::restart_csv(&root.join(DYNAMICS_FILE), DYNAMICS_HEADER, total_steps)?)
+        } else {
+            None
+        };
+        Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics })
+    }
+
+    /// Starts a CSV whose first column is `total_steps` with its rows up to `total_steps` (a
+    /// run started before the file existed starts it empty).
+    fn restart_csv(path: &Path, header: &str, total_steps: u64) -> Result<File> {
+        let kept: Vec<String> = std::fs::read_to_string(path)
             .unwrap_or_default()
             .lines()
             .skip(1)
@@ -73,8 +87,7 @@ impl RunDir {
             })
             .map(str::to_string)
             .collect();
-        let updates = Self::start_csv(&updates_path, UPDATES_HEADER, kept.into_iter())?;
-        Ok(Self { root: root.to_path_buf(), metrics, eval, updates })
+        Self::start_csv(path, header, kept.into_iter())
     }
 
     fn start_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<File> {
@@ -98,6 +111,14 @@ impl RunDir {
         writeln!(self.metrics, "{}", metrics_row(record))
             .and_then(|()| self.metrics.flush())
             .with_context(|| format!("cannot append to {}", self.root.join(METRICS_FILE).display()))
+    }
+
+    /// Appends a row to `dynamics.csv` (nothing for a bare run).
+    pub fn append_dynamics(&mut self, row: &str) -> Result<()> {
+        let Some(file) = &mut self.dynamics else { return Ok(()) };
+        writeln!(file, "{row}")
+            .and_then(|()| file.flush())
+            .with_context(|| format!("cannot append to {}", self.root.join(DYNAMICS_FILE).display()))
     }
 
     /// Appends a row to `updates.csv`.

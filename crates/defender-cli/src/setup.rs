@@ -35,6 +35,8 @@ pub struct Built {
     /// The `[defender]` section with what building it resolved: `R_task`, the demonstration file
     /// and its SHA-256, `num_demos`, and the strategy `auto` chose (`None` for a bare run).
     pub defender: Option<DefenderSection>,
+    /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
+    pub dynamics: Option<defender::DynamicsHandle>,
 }
 
 /// Builds the agent and the environments of a run, and returns with them the `[defender]` section
@@ -45,7 +47,7 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
     let agent = algo.build(obs_dim, act_dim, seed)?;
     let Some(section) = section else {
-        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None });
+        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None });
     };
     let mut section = section.clone();
     let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
@@ -82,7 +84,8 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
     if section.num_demos.is_none() {
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
-    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section) })
+    let dynamics = Some(wrapped.dynamics_handle());
+    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section), dynamics })
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

@@ -1,10 +1,11 @@
 //! `updates.csv`: the learner's own numbers as training goes (SB3's logger, CleanRL's
 //! TensorBoard scalars), so a user can see why a run diverged: the critics' loss and mean Q, the
 //! actor's loss, SAC's entropy coefficient and its loss, averaged over every `EVERY` environment
-//! steps.
+//! steps; and `dynamics.csv`: DEFENDER's dynamics model, its prediction error on fresh
+//! transitions and its training loss, every `EVERY` environment steps.
 //!
-//! The file's name and header are the run directory's (`defender_report::UPDATES_FILE`,
-//! `UPDATES_HEADER`); this module makes its rows.
+//! The files' names and headers are the run directory's (`defender_report::UPDATES_FILE`,
+//! `DYNAMICS_FILE` and their headers); this module makes their rows.
 
 /// The accumulator's file in a checkpoint's extra directory.
 pub const CHECKPOINT_FILE: &str = "update_log.json";
@@ -59,5 +60,55 @@ impl UpdateLog {
         );
         *self = Self::default();
         Some(row)
+    }
+}
+
+/// The `dynamics.csv` row at `total_steps`, or `None` between rows. Every value is the model's own
+/// (checkpointed) state, so a resumed run writes the rows the run left alone would.
+pub fn dynamics_row(total_steps: u64, model: &defender::DynamicsModel) -> Option<String> {
+    if !total_steps.is_multiple_of(EVERY) {
+        return None;
+    }
+    let e = model.prediction_error();
+    let loss = model.last_loss();
+    Some(format!(
+        "{total_steps},{},{},{},{},{},{}",
+        model.real_steps(),
+        model.gradient_steps(),
+        e.last,
+        e.ema,
+        e.mean,
+        if loss.is_nan() { String::new() } else { loss.to_string() }
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn dynamics_rows_come_every_1000_steps_with_the_models_numbers() {
+        let config = defender::DynamicsConfig {
+            hidden: vec![8],
+            batch_size: 4,
+            buffer_size: 100,
+            ..Default::default()
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let mut model = defender::DynamicsModel::new(2, 1, config, &mut rng).unwrap();
+        assert_eq!(dynamics_row(999, &model), None);
+        let fresh = dynamics_row(1000, &model).unwrap();
+        assert_eq!(fresh, "1000,0,0,0,0,0,", "no data, no loss yet");
+        for t in 0..20 {
+            model.observe(&[t as f64, 1.0], &[0.5], &[t as f64 + 0.5, 1.0]).unwrap();
+        }
+        let row = dynamics_row(2000, &model).unwrap();
+        let fields: Vec<&str> = row.split(',').collect();
+        assert_eq!(fields.len(), defender_report::DYNAMICS_HEADER.split(',').count());
+        assert_eq!(fields[..2], ["2000", "20"]);
+        assert_eq!(fields[2].parse::<u64>().unwrap(), model.gradient_steps());
+        assert_eq!(fields[4].parse::<f64>().unwrap(), model.prediction_error().ema);
+        assert!(fields[6].parse::<f32>().unwrap().is_finite());
     }
 }

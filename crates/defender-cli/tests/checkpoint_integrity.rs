@@ -75,6 +75,8 @@ fn a_flipped_bit_in_any_checkpoint_file_is_refused_naming_the_file() {
     ];
     let first = defender(&args);
     assert!(first.status.success(), "train failed:\n{}", text(&first));
+    let dynamics = std::fs::read_to_string(out.join("dynamics.csv")).unwrap();
+    assert!(dynamics.starts_with("total_steps,real_steps,gradient_steps,"), "{dynamics}");
     let checkpoint = out.join("checkpoint");
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(checkpoint.join("manifest.json")).unwrap()).unwrap();
@@ -94,7 +96,7 @@ fn a_flipped_bit_in_any_checkpoint_file_is_refused_naming_the_file() {
         "trainer.json",
         "env/dynamics/dynamics.safetensors",
         "env/dynamics/dynamics_adam.safetensors",
-        "env/dynamics/dynamics_buffer.npz",
+        "env/dynamics/dynamics_buffer.bin",
         "env/dynamics/dynamics_state.json",
         "env/defender_stats.json",
         "extra/",

@@ -16,8 +16,9 @@ pub use io::write_atomic;
 pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
 pub use render::{CSV_HEADER, Format, render};
 pub use run::{
-    CONFIG_FILE, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE, METRICS_HEADER,
-    OutcomeCounts, Run, RunSettings, SUMMARY_FILE, StrategySelection, Summary, UPDATES_FILE, UPDATES_HEADER,
+    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow,
+    EvalRow, METRICS_FILE, METRICS_HEADER, OutcomeCounts, Run, RunSettings, SUMMARY_FILE, StrategySelection,
+    Summary, UPDATES_FILE, UPDATES_HEADER,
 };
 pub use stats::{Stat, interpolate, linspace, rolling_mean};
 pub use table::{Row, Table};

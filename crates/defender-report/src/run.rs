@@ -28,6 +28,12 @@ pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,ep
 pub const UPDATES_FILE: &str = "updates.csv";
 /// The header of `updates.csv`.
 pub const UPDATES_HEADER: &str = "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss";
+/// DEFENDER's dynamics model every 1000 steps, its prediction error on fresh transitions and its
+/// training loss (DEFENDER runs only; written by `defender train`, not read by the report).
+pub const DYNAMICS_FILE: &str = "dynamics.csv";
+/// The header of `dynamics.csv`.
+pub const DYNAMICS_HEADER: &str =
+    "total_steps,real_steps,gradient_steps,error_last,error_ema,error_mean,loss";
 
 /// Tolerance for comparing a percentage in `summary.json` with the one recomputed from
 /// `metrics.csv` (the writer may round to 0.1).

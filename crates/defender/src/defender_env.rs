@@ -11,7 +11,7 @@ use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 
 use crate::demonstrations::{CostOptions, Demonstrations};
 use crate::dynamics::{DynamicsConfig, DynamicsModel};
-use crate::dynamics_worker::TrainedDynamics;
+use crate::dynamics_worker::{DynamicsHandle, TrainedDynamics};
 use crate::episode_set::EpisodeSet;
 use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
@@ -210,6 +210,13 @@ impl<E: Env> DefenderEnv<E> {
     /// With `background`: the model's thread stopped (it panicked).
     pub fn dynamics(&self) -> Result<MutexGuard<'_, DynamicsModel>> {
         self.dynamics.model()
+    }
+
+    /// A handle that reads the dynamics model apart from the environment (e.g. to log its
+    /// prediction error while a trainer owns the environment); it follows
+    /// [`DefenderEnv::set_dynamics`].
+    pub fn dynamics_handle(&self) -> DynamicsHandle {
+        self.dynamics.handle()
     }
 
     /// Replaces the dynamics model (e.g. by one restored from a checkpoint).

@@ -1,32 +1,34 @@
 //! The dynamics model of SPEC section 5: an MLP `obs+act -> 256 -> 256 -> obs` (ReLU) that
 //! supplies the next observation of a filtered step.
 //!
-//! What it learns: the network maps the normalised input `[(s - mu_s) / sd_s, (a - mu_a) / sd_a]`
-//! to the normalised change `(s' - s - mu_d) / sd_d`, with an L2 (mean squared error) loss; the
-//! prediction is `s + mu_d + sd_d * net(...)`. Predicting the change from normalised inputs is
-//! the usual way to make one learning rate fit observations of very different scales; SPEC
-//! section 5 allows it. The statistics are running means and standard deviations (Welford, f64)
-//! of every real transition added, floored at 1e-4.
+//! What it learns: the change `s' - s` from normalised inputs, with an L2 (mean squared error)
+//! loss (`normaliser.rs`; SPEC section 5 allows it); the prediction is `s + mu_d + sd_d * net(...)`.
 //!
-//! How it learns: Adam (lr 3e-4), batches of 256 drawn uniformly with replacement from its own
-//! preallocated ring buffer of real transitions only (never its own predictions), by default
-//! one gradient step per real environment step (`train_freq` / `gradient_steps` change that).
-//! Before training on a fresh transition it predicts it, and the error of that prediction (MSE
-//! over the observation's components, in raw units) is tracked: an honest held-out error.
-
-use std::path::Path;
+//! How it learns: Adam (lr 3e-4) on batches drawn uniformly with replacement, with the model's
+//! own RNG, from its store of real transitions only (never its own predictions; `defender-rl`'s
+//! replay buffer); `train_freq`, `gradient_steps` and `batch_size` set the schedule
+//! (docs/decisions.md). Before training on a fresh transition it predicts it, and the error of
+//! that prediction (MSE over the observation's components, in raw units) is tracked: an honest
+//! held-out error. Checkpoints: `checkpoint.rs`.
 
 use defender_nn::faer::{MatMut, MatRef};
 use defender_nn::{Activation, Adam, AdamConfig, Mlp, Parallelism, mse_loss_grad};
+use defender_rl::{Batch, ReplayBuffer, Transition};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::atomic::{commit_file, write_atomic};
 use crate::error::{DefenderError, Result};
-use crate::npz::{NpzReader, NpzWriter, Values};
 
-/// Hyperparameters of the dynamics model (SPEC section 5's values by default).
+mod checkpoint;
+mod normaliser;
+#[cfg(test)]
+mod tests;
+
+use normaliser::Normaliser;
+
+/// Hyperparameters of the dynamics model (SPEC section 5's, but for the schedule: see
+/// [`DynamicsConfig::default`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DynamicsConfig {
@@ -53,14 +55,18 @@ pub struct DynamicsConfig {
 }
 
 impl Default for DynamicsConfig {
+    /// SPEC section 5's model with a cheaper schedule than its default: one gradient step of
+    /// batch 64 every 2 real steps at lr 1e-3, about an eighth of the compute of one step of
+    /// batch 256 per real step at lr 3e-4 ([`DynamicsConfig::spec_schedule`]) for a held-out
+    /// error within 10% of it (measured: docs/decisions.md, docs/benchmarks.md).
     fn default() -> Self {
         Self {
             hidden: vec![256, 256],
-            learning_rate: 3e-4,
-            batch_size: 256,
+            learning_rate: 1e-3,
+            batch_size: 64,
             buffer_size: 1_000_000,
             learning_starts: 1,
-            train_freq: 1,
+            train_freq: 2,
             gradient_steps: 1,
             error_ema_alpha: 0.01,
             background: false,
@@ -69,6 +75,12 @@ impl Default for DynamicsConfig {
 }
 
 impl DynamicsConfig {
+    /// SPEC section 5's schedule: one gradient step of batch 256 per real step, Adam lr 3e-4
+    /// (the default until the cheaper one was measured to predict nearly as well).
+    pub fn spec_schedule() -> Self {
+        Self { learning_rate: 3e-4, batch_size: 256, train_freq: 1, gradient_steps: 1, ..Self::default() }
+    }
+
     fn check(&self) -> Result<()> {
         let bad = |what: &str| Err(DefenderError::Config(format!("dynamics: {what}")));
         if self.hidden.contains(&0) {
@@ -101,63 +113,8 @@ pub struct PredictionError {
     pub mean: f64,
 }
 
-/// Running mean and variance per component (Welford).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-struct Stats {
-    count: u64,
-    mean: Vec<f64>,
-    m2: Vec<f64>,
-}
-
-impl Stats {
-    fn new(dim: usize) -> Self {
-        Self { count: 0, mean: vec![0.0; dim], m2: vec![0.0; dim] }
-    }
-
-    fn add(&mut self, x: impl Iterator<Item = f64>) {
-        self.count += 1;
-        let n = self.count as f64;
-        for ((m, s), v) in self.mean.iter_mut().zip(&mut self.m2).zip(x) {
-            let d = v - *m;
-            *m += d / n;
-            *s += d * (v - *m);
-        }
-    }
-
-    /// Writes mean and standard deviation (floored at 1e-4; 1 before any data) as f32.
-    fn export(&self, mean: &mut [f32], std: &mut [f32]) {
-        for k in 0..self.mean.len() {
-            mean[k] = self.mean[k] as f32;
-            std[k] = if self.count == 0 {
-                1.0
-            } else {
-                ((self.m2[k] / self.count as f64).sqrt()).max(1e-4) as f32
-            };
-        }
-    }
-}
-
-/// What a checkpoint's JSON holds besides the network, the optimiser and the buffer.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SavedState {
-    config: DynamicsConfig,
-    obs_dim: usize,
-    act_dim: usize,
-    input_stats: Stats,
-    delta_stats: Stats,
-    error: PredictionError,
-    real_steps: u64,
-    gradient_steps: u64,
-    last_loss: f32,
-    pos: usize,
-    len: usize,
-    rng_seed: Vec<u8>,
-    rng_stream: u64,
-    rng_word_pos: String,
-}
-
-/// The dynamics model with its transition buffer, optimiser, normalisation and error tracking.
+/// The dynamics model: its network and optimiser, its store of real transitions (`defender-rl`'s
+/// replay buffer, sampled with the model's own RNG), its normalisation and its error tracking.
 #[derive(Debug, Clone)]
 pub struct DynamicsModel {
     config: DynamicsConfig,
@@ -166,28 +123,28 @@ pub struct DynamicsModel {
     net: Mlp,
     adam: Adam,
     rng: ChaCha8Rng,
-    // Ring buffer of real transitions, row-major.
-    buf_obs: Vec<f32>,
-    buf_act: Vec<f32>,
-    buf_next: Vec<f32>,
-    pos: usize,
-    len: usize,
-    input_stats: Stats,
-    delta_stats: Stats,
-    // Normalisation as f32, refreshed on every added transition.
-    in_mean: Vec<f32>,
-    in_std: Vec<f32>,
-    d_mean: Vec<f32>,
-    d_std: Vec<f32>,
-    // Preallocated batch matrices (row-major, batch x width) and a one-sample input.
+    store: ReplayBuffer,
+    normaliser: Normaliser,
+    // Preallocated: a sampled batch, the network's batch input, target and gradient (row-major,
+    // batch x width), a one-sample input, and an action in f32 for the store.
+    batch: Batch,
     batch_in: Vec<f32>,
     batch_target: Vec<f32>,
     batch_grad: Vec<f32>,
     one_in: Vec<f32>,
+    action_f32: Vec<f32>,
     error: PredictionError,
     real_steps: u64,
     gradient_steps: u64,
     last_loss: f32,
+}
+
+/// The network's layer widths: `obs+act -> hidden... -> obs`.
+fn widths(obs_dim: usize, act_dim: usize, config: &DynamicsConfig) -> Vec<usize> {
+    let mut widths = vec![obs_dim + act_dim];
+    widths.extend_from_slice(&config.hidden);
+    widths.push(obs_dim);
+    widths
 }
 
 impl DynamicsModel {
@@ -209,15 +166,14 @@ impl DynamicsModel {
                 "dynamics: obs_dim and act_dim must be >= 1, got {obs_dim} and {act_dim}"
             )));
         }
-        let mut widths = vec![obs_dim + act_dim];
-        widths.extend_from_slice(&config.hidden);
-        widths.push(obs_dim);
-        let net = Mlp::try_new(&widths, Activation::Relu, Activation::Identity, rng)?;
+        let net =
+            Mlp::try_new(&widths(obs_dim, act_dim, &config), Activation::Relu, Activation::Identity, rng)?;
         let adam = Adam::new(&net, AdamConfig { lr: config.learning_rate, ..AdamConfig::default() });
         let sampler = ChaCha8Rng::seed_from_u64(rng.random());
-        Ok(Self::assemble(config, obs_dim, act_dim, net, adam, sampler))
+        Self::assemble(config, obs_dim, act_dim, net, adam, sampler)
     }
 
+    /// A model around `net`, `adam` and `rng` with an empty store and no statistics.
     fn assemble(
         config: DynamicsConfig,
         obs_dim: usize,
@@ -225,35 +181,30 @@ impl DynamicsModel {
         net: Mlp,
         adam: Adam,
         rng: ChaCha8Rng,
-    ) -> Self {
-        let (cap, b, inp) = (config.buffer_size, config.batch_size, obs_dim + act_dim);
-        Self {
+    ) -> Result<Self> {
+        let store = ReplayBuffer::new(config.buffer_size, obs_dim, act_dim)
+            .map_err(|e| DefenderError::Config(format!("dynamics: {e}")))?;
+        let (b, inp) = (config.batch_size, obs_dim + act_dim);
+        Ok(Self {
             obs_dim,
             act_dim,
             net,
             adam,
             rng,
-            buf_obs: vec![0.0; cap * obs_dim],
-            buf_act: vec![0.0; cap * act_dim],
-            buf_next: vec![0.0; cap * obs_dim],
-            pos: 0,
-            len: 0,
-            input_stats: Stats::new(inp),
-            delta_stats: Stats::new(obs_dim),
-            in_mean: vec![0.0; inp],
-            in_std: vec![1.0; inp],
-            d_mean: vec![0.0; obs_dim],
-            d_std: vec![1.0; obs_dim],
+            store,
+            normaliser: Normaliser::new(obs_dim, act_dim),
+            batch: Batch::new(b, obs_dim, act_dim),
             batch_in: vec![0.0; b * inp],
             batch_target: vec![0.0; b * obs_dim],
             batch_grad: vec![0.0; b * obs_dim],
             one_in: vec![0.0; inp],
+            action_f32: vec![0.0; act_dim],
             error: PredictionError::default(),
             real_steps: 0,
             gradient_steps: 0,
             last_loss: f32::NAN,
             config,
-        }
+        })
     }
 
     /// The configuration.
@@ -279,7 +230,7 @@ impl DynamicsModel {
 
     /// Real transitions held (at most `buffer_size`).
     pub fn buffer_len(&self) -> usize {
-        self.len
+        self.store.len()
     }
 
     /// Real transitions seen in total.
@@ -302,17 +253,6 @@ impl DynamicsModel {
         self.error
     }
 
-    fn normalise_input(
-        &self,
-        obs: impl Iterator<Item = f32>,
-        act: impl Iterator<Item = f32>,
-        out: &mut [f32],
-    ) {
-        for (k, v) in obs.chain(act).enumerate() {
-            out[k] = (v - self.in_mean[k]) / self.in_std[k];
-        }
-    }
-
     /// Predicts the next observation of (`obs`, `action`) into `out` (`obs_dim` values).
     ///
     /// # Errors
@@ -322,13 +262,12 @@ impl DynamicsModel {
         if out.len() != self.obs_dim {
             return Err(mismatch("prediction output length", self.obs_dim, out.len()));
         }
-        let mut one = std::mem::take(&mut self.one_in);
-        self.normalise_input(obs.iter().map(|&v| v as f32), action.iter().map(|&v| v as f32), &mut one);
-        let y = self.net.forward(MatRef::from_row_major_slice(&one, 1, one.len()));
-        for k in 0..self.obs_dim {
-            out[k] = obs[k] + f64::from(self.d_mean[k]) + f64::from(self.d_std[k]) * f64::from(y[(0, k)]);
+        let (net, norm, one) = (&mut self.net, &self.normaliser, &mut self.one_in);
+        norm.input(obs.iter().map(|&v| v as f32), action.iter().map(|&v| v as f32), one);
+        let y = net.forward(MatRef::from_row_major_slice(one, 1, one.len()));
+        for k in 0..out.len() {
+            out[k] = norm.prediction(obs[k], k, y[(0, k)]);
         }
-        self.one_in = one;
         Ok(())
     }
 
@@ -390,15 +329,12 @@ impl DynamicsModel {
         // Held-out error: predict before this transition influences anything.
         let mut se = 0.0f64;
         {
-            let mut one = std::mem::take(&mut self.one_in);
-            self.normalise_input(obs.iter().map(|&v| v as f32), action.iter().map(|&v| v as f32), &mut one);
-            let y = self.net.forward(MatRef::from_row_major_slice(&one, 1, one.len()));
+            let (net, norm, one) = (&mut self.net, &self.normaliser, &mut self.one_in);
+            norm.input(obs.iter().map(|&v| v as f32), action.iter().map(|&v| v as f32), one);
+            let y = net.forward(MatRef::from_row_major_slice(one, 1, one.len()));
             for k in 0..self.obs_dim {
-                let pred =
-                    obs[k] + f64::from(self.d_mean[k]) + f64::from(self.d_std[k]) * f64::from(y[(0, k)]);
-                se += (pred - next_obs[k]).powi(2);
+                se += (norm.prediction(obs[k], k, y[(0, k)]) - next_obs[k]).powi(2);
             }
-            self.one_in = one;
         }
         let mse = se / self.obs_dim as f64;
         let e = &mut self.error;
@@ -407,26 +343,22 @@ impl DynamicsModel {
         e.ema = if e.count == 1 { mse } else { e.ema + self.config.error_ema_alpha * (mse - e.ema) };
         e.mean += (mse - e.mean) / e.count as f64;
 
-        // Store.
-        let (o, a, p) = (self.obs_dim, self.act_dim, self.pos);
-        for k in 0..o {
-            self.buf_obs[p * o + k] = obs[k] as f32;
-            self.buf_next[p * o + k] = next_obs[k] as f32;
-        }
-        for (dst, &v) in self.buf_act[p * a..(p + 1) * a].iter_mut().zip(action) {
+        for (dst, &v) in self.action_f32.iter_mut().zip(action) {
             *dst = v as f32;
         }
-        self.pos = (p + 1) % self.config.buffer_size;
-        self.len = (self.len + 1).min(self.config.buffer_size);
-        self.input_stats.add(obs.iter().chain(action).copied());
-        self.delta_stats.add(obs.iter().zip(next_obs).map(|(s, n)| n - s));
-        let inp = o + a;
-        self.input_stats.export(&mut self.in_mean, &mut self.in_std);
-        self.delta_stats.export(&mut self.d_mean, &mut self.d_std);
-        debug_assert_eq!(self.in_mean.len(), inp);
+        let t = Transition {
+            obs,
+            action: &self.action_f32,
+            reward: 0.0,
+            next_obs,
+            terminated: false,
+            truncated: false,
+        };
+        self.store.push(&t).map_err(|e| DefenderError::Config(format!("dynamics: {e}")))?;
+        self.normaliser.add(obs, action, next_obs);
         self.real_steps += 1;
 
-        if self.len >= self.config.learning_starts
+        if self.store.len() >= self.config.learning_starts
             && self.real_steps.is_multiple_of(self.config.train_freq as u64)
         {
             for _ in 0..self.config.gradient_steps {
@@ -436,264 +368,35 @@ impl DynamicsModel {
         Ok(())
     }
 
-    /// One gradient step on a batch drawn uniformly (with replacement) from the buffer. Does
-    /// nothing on an empty buffer. Allocation-free.
+    /// One gradient step on a batch drawn uniformly (with replacement) from the store with the
+    /// model's own RNG. Does nothing on an empty store. Allocation-free.
     pub fn train_step(&mut self) {
-        if self.len == 0 {
-            return;
+        if self.store.sample_into(&mut self.rng, &mut self.batch).is_err() {
+            return; // empty: nothing to learn from yet
         }
         let (o, a, b) = (self.obs_dim, self.act_dim, self.config.batch_size);
         let inp = o + a;
-        let mut x = std::mem::take(&mut self.batch_in);
-        let mut t = std::mem::take(&mut self.batch_target);
-        let mut g = std::mem::take(&mut self.batch_grad);
+        let (batch, norm) = (&self.batch, &self.normaliser);
         for r in 0..b {
-            let i = self.rng.random_range(0..self.len);
-            let (obs, act, next) = (
-                &self.buf_obs[i * o..(i + 1) * o],
-                &self.buf_act[i * a..(i + 1) * a],
-                &self.buf_next[i * o..(i + 1) * o],
-            );
-            self.normalise_input(obs.iter().copied(), act.iter().copied(), &mut x[r * inp..(r + 1) * inp]);
-            for k in 0..o {
-                t[r * o + k] = (next[k] - obs[k] - self.d_mean[k]) / self.d_std[k];
-            }
+            let (obs, next) = (&batch.obs[r * o..(r + 1) * o], &batch.next_obs[r * o..(r + 1) * o]);
+            let act = &batch.actions[r * a..(r + 1) * a];
+            norm.input(obs.iter().copied(), act.iter().copied(), &mut self.batch_in[r * inp..(r + 1) * inp]);
+            norm.target(obs, next, &mut self.batch_target[r * o..(r + 1) * o]);
         }
         self.net.zero_grad();
-        let pred = self.net.forward(MatRef::from_row_major_slice(&x, b, inp));
+        let pred = self.net.forward(MatRef::from_row_major_slice(&self.batch_in, b, inp));
         let loss = mse_loss_grad(
             pred,
-            MatRef::from_row_major_slice(&t, b, o),
-            MatMut::from_row_major_slice_mut(&mut g, b, o),
+            MatRef::from_row_major_slice(&self.batch_target, b, o),
+            MatMut::from_row_major_slice_mut(&mut self.batch_grad, b, o),
         );
-        self.net.backward_params(MatRef::from_row_major_slice(&g, b, o));
+        self.net.backward_params(MatRef::from_row_major_slice(&self.batch_grad, b, o));
         self.adam.step(&mut self.net);
         self.last_loss = loss;
         self.gradient_steps += 1;
-        self.batch_in = x;
-        self.batch_target = t;
-        self.batch_grad = g;
-    }
-
-    /// Saves the whole state (network, optimiser, buffer, normalisation, RNG, counters) into
-    /// directory `dir` (created if needed) as `dynamics.safetensors`, `dynamics_adam.safetensors`,
-    /// `dynamics_buffer.npz` and `dynamics_state.json`, each written atomically.
-    ///
-    /// # Errors
-    /// An I/O error.
-    pub fn save(&self, dir: impl AsRef<Path>) -> Result<()> {
-        let dir = dir.as_ref();
-        std::fs::create_dir_all(dir).map_err(|e| DefenderError::io(dir, e))?;
-        let net = dir.join("dynamics.safetensors");
-        commit_file(&net, |tmp| Ok(self.net.save_safetensors(tmp)?))?;
-        let adam = dir.join("dynamics_adam.safetensors");
-        commit_file(&adam, |tmp| Ok(self.adam.save_safetensors(tmp)?))?;
-        let buffer = dir.join("dynamics_buffer.npz");
-        let (o, a, n) = (self.obs_dim, self.act_dim, self.len);
-        write_atomic(&buffer, |w| {
-            let mut npz = NpzWriter::new(w, &buffer);
-            npz.write("obs", &[n, o], &self.buf_obs[..n * o])?;
-            npz.write("act", &[n, a], &self.buf_act[..n * a])?;
-            npz.write("next_obs", &[n, o], &self.buf_next[..n * o])?;
-            npz.finish()?;
-            Ok(())
-        })?;
-        let state = SavedState {
-            config: self.config.clone(),
-            obs_dim: o,
-            act_dim: a,
-            input_stats: self.input_stats.clone(),
-            delta_stats: self.delta_stats.clone(),
-            error: self.error,
-            real_steps: self.real_steps,
-            gradient_steps: self.gradient_steps,
-            last_loss: self.last_loss,
-            pos: self.pos,
-            len: self.len,
-            rng_seed: self.rng.get_seed().to_vec(),
-            rng_stream: self.rng.get_stream(),
-            rng_word_pos: self.rng.get_word_pos().to_string(),
-        };
-        let json = dir.join("dynamics_state.json");
-        write_atomic(&json, |w| {
-            serde_json::to_writer_pretty(&mut *w, &state)
-                .map_err(|e| DefenderError::Checkpoint { path: json.clone(), what: e.to_string() })
-        })
-    }
-
-    /// Restores a model saved by [`DynamicsModel::save`]; it continues bit for bit as the saved
-    /// one would have.
-    ///
-    /// # Errors
-    /// Missing or inconsistent files, naming the file.
-    pub fn load(dir: impl AsRef<Path>) -> Result<Self> {
-        let dir = dir.as_ref();
-        let json = dir.join("dynamics_state.json");
-        let text = std::fs::read_to_string(&json).map_err(|e| DefenderError::io(&json, e))?;
-        let bad = |what: String| DefenderError::Checkpoint { path: json.clone(), what };
-        let s: SavedState = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        s.config.check()?;
-        let net = Mlp::load_safetensors(dir.join("dynamics.safetensors"))?;
-        let mut widths = vec![s.obs_dim + s.act_dim];
-        widths.extend_from_slice(&s.config.hidden);
-        widths.push(s.obs_dim);
-        if net.widths() != widths.as_slice() {
-            return Err(bad(format!(
-                "network widths {:?} do not match the saved config {widths:?}",
-                net.widths()
-            )));
-        }
-        let adam = Adam::load_safetensors(dir.join("dynamics_adam.safetensors"), &net)?;
-        let seed: [u8; 32] =
-            s.rng_seed.as_slice().try_into().map_err(|_| bad("rng_seed must be 32 bytes".into()))?;
-        let mut rng = ChaCha8Rng::from_seed(seed);
-        rng.set_stream(s.rng_stream);
-        rng.set_word_pos(s.rng_word_pos.parse().map_err(|e| bad(format!("rng_word_pos: {e}")))?);
-        let mut m = Self::assemble(s.config, s.obs_dim, s.act_dim, net, adam, rng);
-        let buffer = dir.join("dynamics_buffer.npz");
-        let mut npz = NpzReader::open(&buffer)?;
-        for (name, dst, width) in [
-            ("obs", &mut m.buf_obs, s.obs_dim),
-            ("act", &mut m.buf_act, s.act_dim),
-            ("next_obs", &mut m.buf_next, s.obs_dim),
-        ] {
-            let arr = npz
-                .read(name)?
-                .ok_or_else(|| bad(format!("{}: array '{name}' missing", buffer.display())))?;
-            match arr.values {
-                Values::F32(v) if arr.shape == [s.len, width] && v.len() <= dst.len() => {
-                    dst[..v.len()].copy_from_slice(&v)
-                }
-                _ => {
-                    return Err(bad(format!(
-                        "{}: array '{name}' is not float32 [{}, {width}]",
-                        buffer.display(),
-                        s.len
-                    )));
-                }
-            }
-        }
-        m.pos = s.pos;
-        m.len = s.len;
-        m.input_stats = s.input_stats;
-        m.delta_stats = s.delta_stats;
-        m.input_stats.export(&mut m.in_mean, &mut m.in_std);
-        m.delta_stats.export(&mut m.d_mean, &mut m.d_std);
-        m.error = s.error;
-        m.real_steps = s.real_steps;
-        m.gradient_steps = s.gradient_steps;
-        m.last_loss = s.last_loss;
-        Ok(m)
     }
 }
 
 fn mismatch(what: &str, expected: usize, got: usize) -> DefenderError {
     DefenderError::Mismatch { what: what.into(), expected: expected.to_string(), got: got.to_string() }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A linear system s' = A s + B a with a known answer.
-    fn step(s: &[f64], a: &[f64]) -> Vec<f64> {
-        vec![0.9 * s[0] + 0.1 * s[1] + 0.5 * a[0], -0.2 * s[0] + 0.95 * s[1] + 0.3 * a[0], s[2] + 0.05]
-    }
-
-    fn small_config() -> DynamicsConfig {
-        DynamicsConfig {
-            hidden: vec![64, 64],
-            batch_size: 64,
-            buffer_size: 5000,
-            learning_rate: 1e-3,
-            ..Default::default()
-        }
-    }
-
-    #[test]
-    fn learns_a_linear_system_and_tracks_its_error() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0);
-        let mut m = DynamicsModel::new(3, 1, small_config(), &mut rng).unwrap();
-        let mut s = vec![0.5, -0.5, 0.0];
-        let mut first = None;
-        for t in 0..3000 {
-            let a = [rng.random_range(-1.0..1.0)];
-            let n = step(&s, &a);
-            m.observe(&s, &a, &n).unwrap();
-            if t == 99 {
-                first = Some(m.prediction_error().mean);
-            }
-            s = if t % 50 == 49 {
-                vec![rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0]
-            } else {
-                n
-            };
-        }
-        let err = m.prediction_error();
-        assert_eq!(err.count, 3000);
-        assert_eq!(m.gradient_steps(), 3000, "one gradient step per real step");
-        let first = first.unwrap();
-        assert!(err.ema < first / 10.0, "the error falls: first 100 mean {first}, now ema {}", err.ema);
-        let s = [0.2, 0.1, 1.0];
-        let p = m.predict(&s, &[0.5]).unwrap();
-        let truth = step(&s, &[0.5]);
-        for k in 0..3 {
-            assert!((p[k] - truth[k]).abs() < 0.05, "{p:?} vs {truth:?}");
-        }
-    }
-
-    #[test]
-    fn train_freq_and_gradient_steps_are_honoured() {
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let cfg = DynamicsConfig { train_freq: 4, gradient_steps: 2, learning_starts: 8, ..small_config() };
-        let mut m = DynamicsModel::new(3, 1, cfg, &mut rng).unwrap();
-        for t in 0..20 {
-            let s = [t as f64, 0.0, 0.0];
-            m.observe(&s, &[0.0], &step(&s, &[0.0])).unwrap();
-        }
-        // Rounds at real steps 8, 12, 16, 20 (buffer >= 8): 4 rounds x 2 steps.
-        assert_eq!(m.gradient_steps(), 8);
-        assert!(m.last_loss().is_finite());
-    }
-
-    #[test]
-    fn bad_transitions_are_refused() {
-        let mut rng = ChaCha8Rng::seed_from_u64(2);
-        let mut m = DynamicsModel::new(3, 1, small_config(), &mut rng).unwrap();
-        assert!(m.observe(&[0.0; 2], &[0.0], &[0.0; 3]).is_err());
-        assert!(m.observe(&[0.0; 3], &[0.0; 2], &[0.0; 3]).is_err());
-        assert!(m.observe(&[0.0; 3], &[f64::NAN], &[0.0; 3]).is_err());
-        assert_eq!(m.buffer_len(), 0);
-        assert!(
-            DynamicsModel::new(3, 1, DynamicsConfig { batch_size: 0, ..small_config() }, &mut rng).is_err()
-        );
-    }
-
-    #[test]
-    fn save_and_load_continue_bit_for_bit() {
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let mut m = DynamicsModel::new(3, 1, small_config(), &mut rng).unwrap();
-        let mut s = vec![0.1, 0.2, 0.0];
-        for _ in 0..100 {
-            let a = [rng.random_range(-1.0..1.0)];
-            let n = step(&s, &a);
-            m.observe(&s, &a, &n).unwrap();
-            s = n;
-        }
-        let dir = tempfile::tempdir().unwrap();
-        m.save(dir.path()).unwrap();
-        let mut back = DynamicsModel::load(dir.path()).unwrap();
-        for _ in 0..50 {
-            let a = [rng.random_range(-1.0..1.0)];
-            let n = step(&s, &a);
-            m.observe(&s, &a, &n).unwrap();
-            back.observe(&s, &a, &n).unwrap();
-            s = n;
-        }
-        assert_eq!(m.predict(&s, &[0.3]).unwrap(), back.predict(&s, &[0.3]).unwrap());
-        assert_eq!(m.prediction_error(), back.prediction_error());
-        assert_eq!(m.gradient_steps(), back.gradient_steps());
-        std::fs::remove_file(dir.path().join("dynamics_buffer.npz")).unwrap();
-        assert!(DynamicsModel::load(dir.path()).unwrap_err().to_string().contains("dynamics_buffer.npz"));
-    }
 }

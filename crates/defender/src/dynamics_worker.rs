@@ -44,6 +44,53 @@ struct Progress {
     done: u64,
     // The model refused a transition the pre-checks let through (never expected).
     failure: Option<String>,
+    // The thread has ended (it panicked, or the queue closed).
+    stopped: bool,
+}
+
+/// A read-only view of the dynamics model that can be kept apart from its environment (e.g. by
+/// a logger), cheap to clone; it reads the model once every transition handed over so far has
+/// been learnt from, as [`TrainedDynamics::model`] does.
+#[derive(Clone)]
+pub struct DynamicsHandle {
+    model: Arc<Mutex<DynamicsModel>>,
+    progress: Option<Arc<(Mutex<Progress>, Condvar)>>,
+}
+
+impl DynamicsHandle {
+    /// Calls `read` on the model once it has caught up.
+    ///
+    /// # Errors
+    /// With `background`: the model's thread stopped (it panicked) or failed.
+    pub fn read<T>(&self, read: impl FnOnce(&DynamicsModel) -> T) -> Result<T> {
+        if let Some(progress) = &self.progress {
+            wait_until_idle(progress, || false)?;
+        }
+        Ok(read(&lock(&self.model)))
+    }
+}
+
+impl fmt::Debug for DynamicsHandle {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DynamicsHandle").field("background", &self.progress.is_some()).finish_non_exhaustive()
+    }
+}
+
+/// Waits until the worker has learnt from every transition sent, or has stopped or failed.
+fn wait_until_idle(progress: &(Mutex<Progress>, Condvar), finished: impl Fn() -> bool) -> Result<()> {
+    let (state, idle) = progress;
+    let mut p = lock(state);
+    while p.done < p.sent {
+        // A thread that panicked never reports its transition done: look, now and then.
+        if p.stopped || finished() {
+            return Err(DefenderError::Worker("it has stopped (see the panic message above)".into()));
+        }
+        p = idle.wait_timeout(p, Duration::from_millis(100)).unwrap_or_else(PoisonError::into_inner).0;
+    }
+    match &p.failure {
+        Some(reason) => Err(DefenderError::Worker(reason.clone())),
+        None => Ok(()),
+    }
 }
 
 impl TrainedDynamics {
@@ -83,6 +130,14 @@ impl TrainedDynamics {
         Ok(())
     }
 
+    /// A handle that reads the model apart from the environment.
+    pub(crate) fn handle(&self) -> DynamicsHandle {
+        DynamicsHandle {
+            model: Arc::clone(&self.model),
+            progress: self.worker.as_ref().map(|w| Arc::clone(&w.progress)),
+        }
+    }
+
     /// The model, once every transition handed over so far has been learnt from.
     pub(crate) fn model(&self) -> Result<MutexGuard<'_, DynamicsModel>> {
         if let Some(worker) = &self.worker {
@@ -101,6 +156,8 @@ impl Worker {
         let handle = std::thread::Builder::new()
             .name("defender-dynamics".into())
             .spawn(move || {
+                // Marks the thread stopped however it ends, so that waiting readers return.
+                let _stopped = StopMark(Arc::clone(&shared));
                 let (obs_dim, act_dim) = {
                     let m = lock(&model);
                     (m.obs_dim(), m.act_dim())
@@ -140,19 +197,18 @@ impl Worker {
     }
 
     fn wait_idle(&self) -> Result<()> {
-        let (state, idle) = &*self.progress;
-        let mut p = lock(state);
-        while p.done < p.sent {
-            // A thread that panicked never reports its transition done: look, now and then.
-            if self.handle.as_ref().is_none_or(JoinHandle::is_finished) {
-                return Err(DefenderError::Worker("it has stopped (see the panic message above)".into()));
-            }
-            p = idle.wait_timeout(p, Duration::from_millis(100)).unwrap_or_else(PoisonError::into_inner).0;
-        }
-        match &p.failure {
-            Some(reason) => Err(DefenderError::Worker(reason.clone())),
-            None => Ok(()),
-        }
+        wait_until_idle(&self.progress, || self.handle.as_ref().is_none_or(JoinHandle::is_finished))
+    }
+}
+
+/// Sets `stopped` when dropped: at the end of the worker's thread, also when it unwinds.
+struct StopMark(Arc<(Mutex<Progress>, Condvar)>);
+
+impl Drop for StopMark {
+    fn drop(&mut self) {
+        let (state, idle) = &*self.0;
+        lock(state).stopped = true;
+        idle.notify_all();
     }
 }
 

@@ -24,6 +24,7 @@ pub use atomic::write_atomic;
 pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats};
 pub use demonstrations::{CostOptions, Demonstrations, Scaling};
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
+pub use dynamics_worker::DynamicsHandle;
 pub use episode_set::{Episode, EpisodeSet, Meta};
 pub use error::{DefenderError, Result};
 pub use filter::{Decision, Filter};

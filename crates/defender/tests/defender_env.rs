@@ -343,3 +343,118 @@ fn a_background_dynamics_model_checkpoints_and_resumes() {
     };
     assert_eq!(run(None), run(Some(12)));
 }
+
+/// What one agent saw and did in a DEFENDER run: every transition it stored (obs, action,
+/// reward, terminated, truncated, next obs), every update's statistics, every episode and
+/// evaluation, the final policy's actions on probe states, and the DEFENDER counters.
+/// A stored transition as bits: obs, action, reward, terminated, truncated, next obs.
+type TransitionBits = (Vec<u64>, Vec<u32>, u64, bool, bool, Vec<u64>);
+
+#[derive(Default)]
+struct AgentLog {
+    transitions: Vec<TransitionBits>,
+    updates: Vec<defender_rl::UpdateStats>,
+}
+
+impl defender_rl::Hooks for AgentLog {
+    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64]) {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        self.transitions.push((
+            bits(t.obs),
+            t.action.iter().map(|x| x.to_bits()).collect(),
+            t.reward.to_bits(),
+            t.terminated,
+            t.truncated,
+            bits(t.next_obs),
+        ));
+    }
+    fn on_update(&mut self, _total_steps: u64, stats: &defender_rl::UpdateStats) {
+        self.updates.push(*stats);
+    }
+}
+
+struct AgentRun {
+    log: AgentLog,
+    episodes: Vec<(u64, u64, u64, bool, bool, bool)>,
+    evaluations: Vec<u64>,
+    policy: Vec<u32>,
+    stats: defender::DefenderStats,
+    gradient_steps: u64,
+    probe: Vec<f64>,
+}
+
+/// SAC on the line world under DEFENDER for `steps` steps, the dynamics model trained as `dynamics`.
+fn agent_run(dynamics: defender::DynamicsConfig, steps: u64) -> AgentRun {
+    use defender_rl::{Agent, AlgoConfig, Budget, SacConfig, Trainer, TrainerConfig};
+    let mut cfg = config("MeanBothW5/MeanBothW5");
+    cfg.dynamics = dynamics;
+    let mut rng = ChaCha8Rng::seed_from_u64(derive_wrapper_seed());
+    let env = DefenderEnv::new(TimeLimit::new(Line::new(), 40), &line_demos(), cfg, &mut rng).unwrap();
+    let sac =
+        SacConfig { net_arch: vec![16, 16], batch_size: 16, learning_starts: 64, ..SacConfig::default() };
+    let agent = AlgoConfig::Sac(sac).build(2, 1, 3).unwrap();
+    let mut tc = TrainerConfig::new(3, Budget::Steps(steps));
+    (tc.eval_freq, tc.eval_episodes, tc.final_eval_episodes) = (100, 2, 2);
+    let mut trainer = Trainer::new(agent, env, TimeLimit::new(Line::new(), 40), tc).unwrap();
+    let mut log = AgentLog::default();
+    trainer.run(&mut log).unwrap();
+    let episodes = trainer
+        .episodes()
+        .iter()
+        .map(|r| (r.total_steps, r.episode_return.to_bits(), r.length, r.terminated, r.truncated, r.filtered))
+        .collect();
+    let evaluations = trainer.evaluations().iter().map(|e| e.mean_return.to_bits()).collect();
+    let mut policy = Vec::new();
+    for x in [-2.0, -0.5, 0.0, 0.7, 2.5] {
+        let mut a = [0.0f32];
+        trainer.agent_mut().act(&[x, 1.0], true, &mut a).unwrap();
+        policy.push(a[0].to_bits());
+    }
+    let stats = trainer.env().stats();
+    let mut model = trainer.env().dynamics().unwrap();
+    let probe = model.predict(&[0.5, 1.0], &[0.1]).unwrap();
+    AgentRun { log, episodes, evaluations, policy, stats, gradient_steps: model.gradient_steps(), probe }
+}
+
+fn derive_wrapper_seed() -> u64 {
+    defender_rl::derive_seed(3, defender_rl::SeedPurpose::Wrapper, 0)
+}
+
+/// The agent learns the same whatever the dynamics model's schedule. A filtered step is terminal,
+/// so SAC's target never bootstraps from the predicted state (`r + gamma (1 - 1) Q(s', a') = r`),
+/// the episode ends there (the filter never sees the prediction), and the model samples with
+/// its own RNG. So, bit for bit: every action, reward, flag and observation the agent stores,
+/// every update's losses, every episode, evaluation and DEFENDER counter, and the final policy.
+/// What differs: the model itself, and therefore the predicted next observation of the filtered
+/// (terminal) transitions in the agent's replay buffer, which no update reads.
+#[test]
+fn the_agent_learns_the_same_whatever_the_dynamics_schedule() {
+    let every_step = defender::DynamicsConfig {
+        buffer_size: 1000,
+        hidden: vec![32, 32],
+        batch_size: 16,
+        ..Default::default()
+    };
+    let sparse =
+        defender::DynamicsConfig { train_freq: 7, gradient_steps: 2, batch_size: 8, ..every_step.clone() };
+    let (a, b) = (agent_run(every_step, 700), agent_run(sparse, 700));
+    assert!(a.stats.filtered_steps >= 5, "filtered steps are compared: {:?}", a.stats);
+    assert!(a.log.updates.len() > 500, "the agent learnt: {} updates", a.log.updates.len());
+    assert_ne!(a.gradient_steps, b.gradient_steps);
+    assert_ne!(a.probe, b.probe, "the two models differ");
+    assert_eq!(a.stats, b.stats);
+    assert_eq!(a.episodes, b.episodes);
+    assert_eq!(a.evaluations, b.evaluations);
+    assert_eq!(a.policy, b.policy);
+    assert_eq!(a.log.updates, b.log.updates);
+    assert_eq!(a.log.transitions.len(), b.log.transitions.len());
+    let mut differing = 0;
+    for (x, y) in a.log.transitions.iter().zip(&b.log.transitions) {
+        assert_eq!((&x.0, &x.1, x.2, x.3, x.4), (&y.0, &y.1, y.2, y.3, y.4));
+        if x.5 != y.5 {
+            assert!(x.3, "only a terminal transition's next observation may differ");
+            differing += 1;
+        }
+    }
+    assert!(differing > 0 && differing as u64 <= a.stats.filtered_steps, "{differing} predictions differ");
+}

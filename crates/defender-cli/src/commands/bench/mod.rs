@@ -32,9 +32,10 @@ const BENCH_HELP: &str = "\
 Figures (names for --only, in the order they run):
   mujoco     env steps/s per task, random actions (Hopper-v5 target >= 5000)
   sac, td3   training steps/s on Hopper-v5, env step + one update (targets 150 / 200)
-  overhead   DEFENDER's % Time for SAC on Hopper-v5, 4 strategies (targets <= 115 / 150 %)
-  dynamics   the dynamics model's share of the overhead, cheaper schedules, and the model
-             trained on its own thread ([defender.dynamics] background = true)
+  overhead   DEFENDER's % Time for SAC on Hopper-v5, the paper's 3 state strategies in both
+             modes, default settings (targets <= 105 % state, <= 115 % state-action)
+  dynamics   the dynamics model's share of the overhead: SPEC's schedule against the default,
+             and SPEC's on its own thread ([defender.dynamics] background = true)
 
 DTW and the filter per step are measured by the crates' criterion benches:
   cargo bench -p defender-dtw; cargo bench -p defender --bench filter

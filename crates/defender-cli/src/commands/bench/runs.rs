@@ -9,36 +9,36 @@ use defender_rl::Algo;
 /// The dynamics model's schedule in a DEFENDER run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Schedule {
-    /// SPEC's: one gradient step on a batch of 256 per real step.
+    /// The default (`DynamicsConfig::default()`).
     Default,
+    /// SPEC section 5's: one gradient step on a batch of 256 per real step.
+    Spec,
     /// Never trained (`train_freq` = 10^9): the filter and the wrapper alone.
     Untrained,
-    /// One gradient step every `k` real steps.
-    Every(usize),
-    /// One gradient step per real step on a smaller batch.
-    Batch(usize),
     /// SPEC's, trained on the model's own thread while the agent updates.
-    Background,
+    SpecBackground,
 }
 
 impl Schedule {
     pub(super) fn config(self) -> DynamicsConfig {
-        let d = DynamicsConfig::default();
+        let spec = DynamicsConfig::spec_schedule();
         match self {
-            Schedule::Default => d,
-            Schedule::Untrained => DynamicsConfig { train_freq: 1_000_000_000, ..d },
-            Schedule::Every(k) => DynamicsConfig { train_freq: k, ..d },
-            Schedule::Batch(b) => DynamicsConfig { batch_size: b, ..d },
-            Schedule::Background => DynamicsConfig { background: true, ..d },
+            Schedule::Default => DynamicsConfig::default(),
+            Schedule::Spec => spec,
+            Schedule::Untrained => DynamicsConfig { train_freq: 1_000_000_000, ..spec },
+            Schedule::SpecBackground => DynamicsConfig { background: true, ..spec },
         }
     }
     pub(super) fn text(self) -> String {
+        let d = DynamicsConfig::default();
         match self {
-            Schedule::Default => "dynamics model as SPEC".into(),
+            Schedule::Default => format!(
+                "dynamics model as default ({} step(s) of batch {} every {} real steps)",
+                d.gradient_steps, d.batch_size, d.train_freq
+            ),
+            Schedule::Spec => "dynamics model as SPEC (batch 256 every real step)".into(),
             Schedule::Untrained => "dynamics model not trained".into(),
-            Schedule::Every(k) => format!("dynamics model trained every {k} steps"),
-            Schedule::Batch(b) => format!("dynamics model batch {b}"),
-            Schedule::Background => "dynamics model as SPEC, on its own thread".into(),
+            Schedule::SpecBackground => "dynamics model as SPEC, on its own thread".into(),
         }
     }
 }
