@@ -17,11 +17,15 @@ use super::experiment::PlannedRun;
 use super::runner::{RunState, state_of};
 use crate::run_config::{RunConfig, read_config};
 
-/// Settings that say where and how often a run saves its work, not what it computes: they may
-/// differ (e.g. `record_episodes` is an absolute path inside the sweep directory, which moves
-/// with a clone of the results).
+/// Settings that may differ because they do not change what the agent learns or what the report
+/// reads: where and how often a run saves its work (`record_episodes` is an absolute path inside
+/// the sweep directory, which moves with a clone of the results), and the dynamics model's
+/// settings. A filtered transition is terminal, so no update reads the model's prediction; the
+/// agent learns bit for bit the same whatever the model's schedule (tested in
+/// `crates/defender/tests/defender_env.rs`), and runs made before the default schedule changed
+/// still count.
 fn operational(key: &str) -> bool {
-    key == "record_episodes" || key.starts_with("checkpoint_every")
+    key == "record_episodes" || key.starts_with("checkpoint_every") || key.starts_with("defender.dynamics.")
 }
 
 /// How the complete run in `dir` differs from `planned`, as `key: run -> experiment` lines.
