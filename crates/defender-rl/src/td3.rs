@@ -185,8 +185,8 @@ impl Td3 {
         let (critic_in, target) = (&ws.critic_in, &ws.target);
         self.critics.each(|_, c| c.train_step(critic_in, target, b, &|diff| 2.0 * diff / b as f32));
         let (mut qf_loss, mut qf1_mean) = (0.0f32, 0.0f32);
-        for k in 0..2 {
-            for (&q, &y) in self.critics[k].q.iter().zip(target) {
+        for (k, values) in [&self.critics[0].q, &self.critics[1].q].into_iter().enumerate() {
+            for (&q, &y) in values.iter().zip(target) {
                 let diff = q - y;
                 qf_loss += diff * diff / b as f32;
                 if k == 0 {
