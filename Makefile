@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench lint fmt tools-venv clean-deps python test-python test-sb3
+.PHONY: setup run test bench bench-peers lint fmt tools-venv clean-deps python test-python test-sb3
 
 setup:
 	@bash scripts/setup.sh
@@ -22,6 +22,11 @@ test: setup
 
 bench: setup
 	$(CARGO) bench --workspace
+
+# Training throughput beside Stable-Baselines3 and SBX (installs them into .deps/tools-venv:
+# a multi-GB download the first time), one table; BENCH_ARGS="--threads 1 --repeats 3" etc.
+bench-peers: setup
+	@bash scripts/bench-peers.sh
 
 lint: setup
 	$(CARGO) fmt --all -- --check

@@ -26,11 +26,13 @@ use serde::{Deserialize, Serialize};
 use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, write_json};
 use crate::config::{EntCoef, SacConfig};
+use crate::critics::TwinCritics;
 use crate::error::RlError;
 use crate::nets::{
     ScalarAdam, check_action_len, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows, save_net,
     widths,
 };
+use crate::off_policy::{Experience, Identity, Schedule, check_saved, uniform_action};
 use crate::replay::{Batch, ReplayBuffer, Transition};
 use crate::seed::{SeedPurpose, derive_seed};
 
@@ -65,13 +67,10 @@ struct Workspace {
     next_logp: Vec<f32>,
     /// Bellman targets, per row.
     target: Vec<f32>,
-    /// Scratch columns: Q values, output gradients.
-    q1: Vec<f32>,
-    q2: Vec<f32>,
+    /// The actor loss's gradient with respect to each critic's output.
     grad1: Vec<f32>,
     grad2: Vec<f32>,
-    /// `dL/d(input)` of a critic, and `dL/da~` accumulated over both critics.
-    dinput: Vec<f32>,
+    /// `dL/da~` accumulated over both critics.
     dact: Vec<f32>,
     /// Gradient w.r.t. the actor output.
     grad_actor: Vec<f32>,
@@ -94,11 +93,8 @@ impl Workspace {
             logp: vec![0.0; b],
             next_logp: vec![0.0; b],
             target: vec![0.0; b],
-            q1: vec![0.0; b],
-            q2: vec![0.0; b],
             grad1: vec![0.0; b],
             grad2: vec![0.0; b],
-            dinput: vec![0.0; b * (o + a)],
             dact: vec![0.0; b * a],
             grad_actor: vec![0.0; b * 2 * a],
             obs1: vec![0.0; o],
@@ -129,20 +125,15 @@ pub struct Sac {
     /// `obs -> net_arch -> [mean | log_std]` (SB3's `latent_pi`, then the `mu` and `log_std`
     /// heads as one linear layer: the same function and the same initial distribution).
     actor: Mlp,
-    q1: Mlp,
-    q2: Mlp,
-    q1_target: Mlp,
-    q2_target: Mlp,
     actor_opt: Adam,
-    q1_opt: Adam,
-    q2_opt: Adam,
+    /// The twin critics with their targets.
+    critics: TwinCritics,
     log_alpha: f32,
     /// `Some` when alpha is learned.
     alpha_opt: Option<ScalarAdam>,
     target_entropy: f32,
-    buffer: ReplayBuffer,
+    experience: Experience,
     rng: ChaCha8Rng,
-    num_timesteps: u64,
     n_updates: u64,
     ws: Workspace,
 }
@@ -158,11 +149,8 @@ impl Sac {
         let (o, a, b) = (obs_dim, act_dim, config.batch_size);
         let mut init = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Init, 0));
         let actor = new_mlp(&widths(o, &config.net_arch, 2 * a), Activation::Identity, &mut init)?;
-        let q1 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
-        let q2 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
-        // The targets start as copies of the critics.
-        let (q1_target, q2_target) = (q1.clone(), q2.clone());
         let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
+        let critics = TwinCritics::new(o, a, &config.net_arch, adam, b, &mut init)?;
         let (log_alpha, alpha_opt, target_entropy) = match config.ent_coef {
             EntCoef::Auto { target_entropy, init } => (
                 init.ln(),
@@ -173,23 +161,17 @@ impl Sac {
         };
         Ok(Self {
             actor_opt: Adam::new(&actor, adam),
-            q1_opt: Adam::new(&q1, adam),
-            q2_opt: Adam::new(&q2, adam),
-            buffer: ReplayBuffer::new(config.buffer_size, o, a)?,
+            critics,
+            experience: Experience::new(ReplayBuffer::new(config.buffer_size, o, a)?),
             rng: ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Agent, 0)),
             ws: Workspace::new(b, o, a),
             config,
             obs_dim,
             act_dim,
             actor,
-            q1,
-            q2,
-            q1_target,
-            q2_target,
             log_alpha,
             alpha_opt,
             target_entropy,
-            num_timesteps: 0,
             n_updates: 0,
         })
     }
@@ -207,20 +189,31 @@ impl Sac {
         }
     }
 
-    /// How many threads the networks' matrix products use (defender-nn's default is
-    /// `min(2, cores)`, or `DEFENDER_NN_THREADS`). Results are bit-identical for every setting;
-    /// use [`Parallelism::Sequential`] to run one training per core.
+    /// How many threads the networks use (defender-nn's default is `min(2, cores)`, or
+    /// `DEFENDER_NN_THREADS`): the actor's matrix products are split over them, the twin critics
+    /// run side by side. Results are bit-identical for every setting; use
+    /// [`Parallelism::Sequential`] to run one training per core.
     pub fn set_parallelism(&mut self, parallelism: Parallelism) {
         self.actor.set_parallelism(parallelism);
-        self.q1.set_parallelism(parallelism);
-        self.q2.set_parallelism(parallelism);
-        self.q1_target.set_parallelism(parallelism);
-        self.q2_target.set_parallelism(parallelism);
+        self.critics.set_parallelism(parallelism);
     }
 
     /// The replay buffer.
     pub fn buffer(&self) -> &ReplayBuffer {
-        &self.buffer
+        &self.experience.buffer
+    }
+
+    fn identity(&self) -> Identity {
+        Identity { algo: "sac", obs_dim: self.obs_dim, act_dim: self.act_dim }
+    }
+
+    fn schedule(&self) -> Schedule {
+        let c = &self.config;
+        Schedule {
+            learning_starts: c.learning_starts,
+            train_freq: c.train_freq,
+            gradient_steps: c.gradient_steps,
+        }
     }
 
     /// The policy network (`obs -> [mean | log_std]`).
@@ -265,27 +258,29 @@ impl Sac {
         let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
         let ws = &mut self.ws;
         concat_rows(&mut ws.pi_in, &ws.batch.obs, &ws.pi_act, b, o, a);
-        copy_out(self.q1.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q1);
-        copy_out(self.q2.forward(rows(&ws.pi_in, b, o + a)), &mut ws.q2);
+        let pi_in = &ws.pi_in;
+        self.critics.each(|_, c| c.forward(pi_in, b));
+        let (q1, q2) = (&self.critics[0].q, &self.critics[1].q);
         let mut actor_loss = 0.0f32;
         for i in 0..b {
             // The min's gradient goes to the smaller critic (the first on ties, as torch.min).
-            let first = ws.q1[i] <= ws.q2[i];
-            let min_q = if first { ws.q1[i] } else { ws.q2[i] };
+            let first = q1[i] <= q2[i];
+            let min_q = if first { q1[i] } else { q2[i] };
             actor_loss += (alpha * ws.logp[i] - min_q) / b as f32;
             ws.grad1[i] = if first { -1.0 / b as f32 } else { 0.0 };
             ws.grad2[i] = if first { 0.0 } else { -1.0 / b as f32 };
         }
-        copy_out(self.q1.backward_input(rows(&ws.grad1, b, 1)), &mut ws.dinput);
+        let grads = [&ws.grad1, &ws.grad2];
+        self.critics.each(|k, c| c.backward_input(grads[k], b));
+        let (d1, d2) = (&self.critics[0].dinput, &self.critics[1].dinput);
         for i in 0..b {
             for j in 0..a {
-                ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
+                ws.dact[i * a + j] = d1[i * (o + a) + o + j];
             }
         }
-        copy_out(self.q2.backward_input(rows(&ws.grad2, b, 1)), &mut ws.dinput);
         for i in 0..b {
             for j in 0..a {
-                ws.dact[i * a + j] += ws.dinput[i * (o + a) + o + j];
+                ws.dact[i * a + j] += d2[i * (o + a) + o + j];
             }
         }
         // Back through a~ = tanh(u), u = mean + std eps, and log pi:
@@ -314,7 +309,7 @@ impl Sac {
         let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
         let gamma = self.config.gamma as f32;
         let ws = &mut self.ws;
-        self.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
+        self.experience.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
         // The coefficient of this step is the value before this step's alpha update (SB3).
         let alpha = match self.config.ent_coef {
             EntCoef::Fixed(alpha) => alpha,
@@ -325,10 +320,11 @@ impl Sac {
         copy_out(self.actor.forward(rows(&ws.batch.next_obs, b, o)), &mut ws.actor_out);
         Self::sample_policy(ws, &mut self.rng, b, a, true);
         concat_rows(&mut ws.next_in, &ws.batch.next_obs, &ws.pi_act, b, o, a);
-        copy_out(self.q1_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
-        copy_out(self.q2_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q2);
+        let next_in = &ws.next_in;
+        self.critics.each(|_, c| c.forward_target(next_in, b));
+        let (qt1, qt2) = (&self.critics[0].q, &self.critics[1].q);
         for i in 0..b {
-            let next_q = ws.q1[i].min(ws.q2[i]) - alpha * ws.next_logp[i];
+            let next_q = qt1[i].min(qt2[i]) - alpha * ws.next_logp[i];
             // Bootstrap only if the episode did not terminate; a truncated transition (time
             // limit) bootstraps as usual: its `terminated` is 0.
             ws.target[i] = ws.batch.rewards[i] + (1.0 - ws.batch.terminated[i]) * gamma * next_q;
@@ -349,23 +345,17 @@ impl Sac {
 
         // Critics: 0.5 * sum_i mse(Q_i(s, a), y); d/dQ_i = (Q_i - y) / b.
         concat_rows(&mut ws.critic_in, &ws.batch.obs, &ws.batch.actions, b, o, a);
-        let mut qf_loss = 0.0f32;
-        let mut qf1_mean = 0.0f32;
-        for (k, (q, opt)) in
-            [(&mut self.q1, &mut self.q1_opt), (&mut self.q2, &mut self.q2_opt)].into_iter().enumerate()
-        {
-            q.zero_grad();
-            copy_out(q.forward(rows(&ws.critic_in, b, o + a)), &mut ws.q1);
-            for i in 0..b {
-                let diff = ws.q1[i] - ws.target[i];
+        let (critic_in, target) = (&ws.critic_in, &ws.target);
+        self.critics.each(|_, c| c.train_step(critic_in, target, b, &|diff| diff / b as f32));
+        let (mut qf_loss, mut qf1_mean) = (0.0f32, 0.0f32);
+        for (k, values) in [&self.critics[0].q, &self.critics[1].q].into_iter().enumerate() {
+            for (&q, &y) in values.iter().zip(target) {
+                let diff = q - y;
                 qf_loss += 0.5 * diff * diff / b as f32;
-                ws.grad1[i] = diff / b as f32;
                 if k == 0 {
-                    qf1_mean += ws.q1[i] / b as f32;
+                    qf1_mean += q / b as f32;
                 }
             }
-            q.backward_params(rows(&ws.grad1, b, 1));
-            opt.step(q);
         }
 
         let actor_loss = self.actor_backward(alpha);
@@ -374,8 +364,7 @@ impl Sac {
         self.n_updates += 1;
         if self.n_updates.is_multiple_of(self.config.target_update_interval) {
             let tau = self.config.tau as f32;
-            self.q1_target.polyak_update(&self.q1, tau);
-            self.q2_target.polyak_update(&self.q2, tau);
+            self.critics.polyak(tau);
         }
         if !(qf_loss.is_finite() && actor_loss.is_finite()) {
             return Err(RlError::Diverged { what: "SAC loss", update: self.n_updates });
@@ -405,18 +394,15 @@ impl Agent for Sac {
     }
 
     fn num_timesteps(&self) -> u64 {
-        self.num_timesteps
+        self.experience.num_timesteps
     }
 
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         let a = self.act_dim;
         check_action_len(action, a)?;
         obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.num_timesteps < self.config.learning_starts {
-            // Warm-up: uniform over the action space (SB3 samples the space itself).
-            for x in action.iter_mut() {
-                *x = self.rng.random_range(-1.0..=1.0);
-            }
+        if !deterministic && self.experience.warming_up(self.config.learning_starts) {
+            uniform_action(&mut self.rng, action);
             return Ok(());
         }
         let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
@@ -434,37 +420,23 @@ impl Agent for Sac {
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
-        self.buffer.push(transition)?;
-        self.num_timesteps += 1;
-        Ok(())
+        self.experience.observe(transition)
     }
 
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
-        // SB3: train after every `train_freq` steps once more than `learning_starts` were taken.
-        let n = self.num_timesteps;
-        if n <= self.config.learning_starts || !n.is_multiple_of(self.config.train_freq) {
-            return Ok(None);
-        }
-        let mut last = None;
-        for _ in 0..self.config.gradient_steps {
-            last = Some(self.gradient_step()?);
-        }
-        Ok(last)
+        self.schedule().run(self.experience.num_timesteps, || self.gradient_step())
     }
 
     fn save(&self, dir: &Path) -> Result<(), RlError> {
         save_net(dir, "actor", &self.actor, Some(&self.actor_opt))?;
-        save_net(dir, "q1", &self.q1, Some(&self.q1_opt))?;
-        save_net(dir, "q2", &self.q2, Some(&self.q2_opt))?;
-        save_net(dir, "q1_target", &self.q1_target, None)?;
-        save_net(dir, "q2_target", &self.q2_target, None)?;
-        self.buffer.save(&dir.join("replay.bin"))?;
+        self.critics.save(dir)?;
+        self.experience.buffer.save(&dir.join("replay.bin"))?;
         let state = SacState {
             algo: "sac".into(),
             config: self.config.clone(),
             obs_dim: self.obs_dim,
             act_dim: self.act_dim,
-            num_timesteps: self.num_timesteps,
+            num_timesteps: self.experience.num_timesteps,
             n_updates: self.n_updates,
             log_alpha: self.log_alpha,
             alpha_opt: self.alpha_opt.clone(),
@@ -476,25 +448,12 @@ impl Agent for Sac {
     fn load(&mut self, dir: &Path) -> Result<(), RlError> {
         let path = dir.join("state.json");
         let state: SacState = read_json(&path)?;
-        if state.algo != "sac"
-            || state.config != self.config
-            || (state.obs_dim, state.act_dim) != (self.obs_dim, self.act_dim)
-        {
-            return Err(RlError::checkpoint(
-                &path,
-                format!(
-                    "saved by {} with dims {}/{} and another configuration than this agent's (sac, {}/{})",
-                    state.algo, state.obs_dim, state.act_dim, self.obs_dim, self.act_dim
-                ),
-            ));
-        }
+        let dims = (state.obs_dim, state.act_dim);
+        check_saved(&path, &state.algo, dims, state.config == self.config, self.identity())?;
         load_net(dir, "actor", &mut self.actor, Some(&mut self.actor_opt))?;
-        load_net(dir, "q1", &mut self.q1, Some(&mut self.q1_opt))?;
-        load_net(dir, "q2", &mut self.q2, Some(&mut self.q2_opt))?;
-        load_net(dir, "q1_target", &mut self.q1_target, None)?;
-        load_net(dir, "q2_target", &mut self.q2_target, None)?;
-        self.buffer.load(&dir.join("replay.bin"))?;
-        self.num_timesteps = state.num_timesteps;
+        self.critics.load(dir)?;
+        self.experience.buffer.load(&dir.join("replay.bin"))?;
+        self.experience.num_timesteps = state.num_timesteps;
         self.n_updates = state.n_updates;
         self.log_alpha = state.log_alpha;
         self.alpha_opt = state.alpha_opt;
@@ -537,7 +496,7 @@ mod tests {
             };
             sac.observe(&t).unwrap();
         }
-        sac.buffer.sample_into(&mut sac.rng, &mut sac.ws.batch).unwrap();
+        sac.experience.buffer.sample_into(&mut sac.rng, &mut sac.ws.batch).unwrap();
         sac
     }
 

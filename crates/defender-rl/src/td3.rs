@@ -25,10 +25,12 @@ use serde::{Deserialize, Serialize};
 use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, write_json};
 use crate::config::Td3Config;
+use crate::critics::TwinCritics;
 use crate::error::RlError;
 use crate::nets::{
     check_action_len, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows, save_net, widths,
 };
+use crate::off_policy::{Experience, Identity, Schedule, check_saved, uniform_action};
 use crate::replay::{Batch, ReplayBuffer, Transition};
 use crate::seed::{SeedPurpose, derive_seed};
 
@@ -43,10 +45,8 @@ struct Workspace {
     /// `[s | a]` rows (replayed actions).
     critic_in: Vec<f32>,
     target: Vec<f32>,
-    q1: Vec<f32>,
-    q2: Vec<f32>,
+    /// The actor loss's gradient with respect to the first critic's output.
     grad: Vec<f32>,
-    dinput: Vec<f32>,
     dact: Vec<f32>,
     obs1: Vec<f32>,
 }
@@ -72,16 +72,11 @@ pub struct Td3 {
     /// `obs -> net_arch -> act` with a tanh output.
     actor: Mlp,
     actor_target: Mlp,
-    q1: Mlp,
-    q2: Mlp,
-    q1_target: Mlp,
-    q2_target: Mlp,
     actor_opt: Adam,
-    q1_opt: Adam,
-    q2_opt: Adam,
-    buffer: ReplayBuffer,
+    /// The twin critics with their targets.
+    critics: TwinCritics,
+    experience: Experience,
     rng: ChaCha8Rng,
-    num_timesteps: u64,
     n_updates: u64,
     ws: Workspace,
 }
@@ -97,17 +92,13 @@ impl Td3 {
         let (o, a, b) = (obs_dim, act_dim, config.batch_size);
         let mut init = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Init, 0));
         let actor = new_mlp(&widths(o, &config.net_arch, a), Activation::Tanh, &mut init)?;
-        let q1 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
-        let q2 = new_mlp(&widths(o + a, &config.net_arch, 1), Activation::Identity, &mut init)?;
         let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
+        let critics = TwinCritics::new(o, a, &config.net_arch, adam, b, &mut init)?;
         Ok(Self {
             actor_target: actor.clone(),
-            q1_target: q1.clone(),
-            q2_target: q2.clone(),
             actor_opt: Adam::new(&actor, adam),
-            q1_opt: Adam::new(&q1, adam),
-            q2_opt: Adam::new(&q2, adam),
-            buffer: ReplayBuffer::new(config.buffer_size, o, a)?,
+            critics,
+            experience: Experience::new(ReplayBuffer::new(config.buffer_size, o, a)?),
             rng: ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Agent, 0)),
             ws: Workspace {
                 batch: Batch::new(b, o, a),
@@ -115,10 +106,7 @@ impl Td3 {
                 next_in: vec![0.0; b * (o + a)],
                 critic_in: vec![0.0; b * (o + a)],
                 target: vec![0.0; b],
-                q1: vec![0.0; b],
-                q2: vec![0.0; b],
                 grad: vec![0.0; b],
-                dinput: vec![0.0; b * (o + a)],
                 dact: vec![0.0; b * a],
                 obs1: vec![0.0; o],
             },
@@ -126,9 +114,6 @@ impl Td3 {
             obs_dim,
             act_dim,
             actor,
-            q1,
-            q2,
-            num_timesteps: 0,
             n_updates: 0,
         })
     }
@@ -138,21 +123,32 @@ impl Td3 {
         &self.config
     }
 
-    /// How many threads the networks' matrix products use (defender-nn's default is
-    /// `min(2, cores)`, or `DEFENDER_NN_THREADS`). Results are bit-identical for every setting;
-    /// use [`Parallelism::Sequential`] to run one training per core.
+    /// How many threads the networks use (defender-nn's default is `min(2, cores)`, or
+    /// `DEFENDER_NN_THREADS`): the actor's matrix products are split over them, the twin critics
+    /// run side by side. Results are bit-identical for every setting; use
+    /// [`Parallelism::Sequential`] to run one training per core.
     pub fn set_parallelism(&mut self, parallelism: Parallelism) {
         self.actor.set_parallelism(parallelism);
         self.actor_target.set_parallelism(parallelism);
-        self.q1.set_parallelism(parallelism);
-        self.q2.set_parallelism(parallelism);
-        self.q1_target.set_parallelism(parallelism);
-        self.q2_target.set_parallelism(parallelism);
+        self.critics.set_parallelism(parallelism);
     }
 
     /// The replay buffer.
     pub fn buffer(&self) -> &ReplayBuffer {
-        &self.buffer
+        &self.experience.buffer
+    }
+
+    fn identity(&self) -> Identity {
+        Identity { algo: "td3", obs_dim: self.obs_dim, act_dim: self.act_dim }
+    }
+
+    fn schedule(&self) -> Schedule {
+        let c = &self.config;
+        Schedule {
+            learning_starts: c.learning_starts,
+            train_freq: c.train_freq,
+            gradient_steps: c.gradient_steps,
+        }
     }
 
     /// The policy network (`obs -> action in [-1, 1]`).
@@ -167,7 +163,7 @@ impl Td3 {
         let (sigma, clip) = (self.config.target_policy_noise as f32, self.config.target_noise_clip as f32);
         let ws = &mut self.ws;
         self.n_updates += 1;
-        self.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
+        self.experience.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
 
         // Target policy smoothing: clipped Gaussian noise on the target actor's action.
         copy_out(self.actor_target.forward(rows(&ws.batch.next_obs, b, o)), &mut ws.act);
@@ -176,32 +172,27 @@ impl Td3 {
             *x = (*x + noise).clamp(-1.0, 1.0);
         }
         concat_rows(&mut ws.next_in, &ws.batch.next_obs, &ws.act, b, o, a);
-        copy_out(self.q1_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
-        copy_out(self.q2_target.forward(rows(&ws.next_in, b, o + a)), &mut ws.q2);
+        let next_in = &ws.next_in;
+        self.critics.each(|_, c| c.forward_target(next_in, b));
+        let (qt1, qt2) = (&self.critics[0].q, &self.critics[1].q);
         for i in 0..b {
             // Bootstrap only if the episode did not terminate (truncation bootstraps).
-            ws.target[i] =
-                ws.batch.rewards[i] + (1.0 - ws.batch.terminated[i]) * gamma * ws.q1[i].min(ws.q2[i]);
+            ws.target[i] = ws.batch.rewards[i] + (1.0 - ws.batch.terminated[i]) * gamma * qt1[i].min(qt2[i]);
         }
 
         // Critics: sum_i mse(Q_i(s, a), y) (no 0.5 here, unlike SAC); d/dQ_i = 2 (Q_i - y) / b.
         concat_rows(&mut ws.critic_in, &ws.batch.obs, &ws.batch.actions, b, o, a);
+        let (critic_in, target) = (&ws.critic_in, &ws.target);
+        self.critics.each(|_, c| c.train_step(critic_in, target, b, &|diff| 2.0 * diff / b as f32));
         let (mut qf_loss, mut qf1_mean) = (0.0f32, 0.0f32);
-        for (k, (q, opt)) in
-            [(&mut self.q1, &mut self.q1_opt), (&mut self.q2, &mut self.q2_opt)].into_iter().enumerate()
-        {
-            q.zero_grad();
-            copy_out(q.forward(rows(&ws.critic_in, b, o + a)), &mut ws.q1);
-            for i in 0..b {
-                let diff = ws.q1[i] - ws.target[i];
+        for (k, values) in [&self.critics[0].q, &self.critics[1].q].into_iter().enumerate() {
+            for (&q, &y) in values.iter().zip(target) {
+                let diff = q - y;
                 qf_loss += diff * diff / b as f32;
-                ws.grad[i] = 2.0 * diff / b as f32;
                 if k == 0 {
-                    qf1_mean += ws.q1[i] / b as f32;
+                    qf1_mean += q / b as f32;
                 }
             }
-            q.backward_params(rows(&ws.grad, b, 1));
-            opt.step(q);
         }
 
         // Delayed policy update: maximise Q_1(s, pi(s)), then move all targets.
@@ -209,13 +200,14 @@ impl Td3 {
         if self.n_updates.is_multiple_of(self.config.policy_delay) {
             copy_out(self.actor.forward(rows(&ws.batch.obs, b, o)), &mut ws.act);
             concat_rows(&mut ws.next_in, &ws.batch.obs, &ws.act, b, o, a);
-            copy_out(self.q1.forward(rows(&ws.next_in, b, o + a)), &mut ws.q1);
-            actor_loss = Some(-ws.q1[..b].iter().sum::<f32>() / b as f32);
+            let q1 = self.critics.alone(0);
+            q1.forward(&ws.next_in, b);
+            actor_loss = Some(-q1.q[..b].iter().sum::<f32>() / b as f32);
             ws.grad.fill(-1.0 / b as f32);
-            copy_out(self.q1.backward_input(rows(&ws.grad, b, 1)), &mut ws.dinput);
+            q1.backward_input(&ws.grad, b);
             for i in 0..b {
                 for j in 0..a {
-                    ws.dact[i * a + j] = ws.dinput[i * (o + a) + o + j];
+                    ws.dact[i * a + j] = q1.dinput[i * (o + a) + o + j];
                 }
             }
             // The actor's own tanh is inside the network: backward_params differentiates it.
@@ -223,8 +215,7 @@ impl Td3 {
             self.actor.backward_params(rows(&ws.dact, b, a));
             self.actor_opt.step(&mut self.actor);
             let tau = self.config.tau as f32;
-            self.q1_target.polyak_update(&self.q1, tau);
-            self.q2_target.polyak_update(&self.q2, tau);
+            self.critics.polyak(tau);
             self.actor_target.polyak_update(&self.actor, tau);
         }
         if !qf_loss.is_finite() || actor_loss.is_some_and(|l| !l.is_finite()) {
@@ -255,16 +246,14 @@ impl Agent for Td3 {
     }
 
     fn num_timesteps(&self) -> u64 {
-        self.num_timesteps
+        self.experience.num_timesteps
     }
 
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         check_action_len(action, self.act_dim)?;
         obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.num_timesteps < self.config.learning_starts {
-            for x in action.iter_mut() {
-                *x = self.rng.random_range(-1.0..=1.0);
-            }
+        if !deterministic && self.experience.warming_up(self.config.learning_starts) {
+            uniform_action(&mut self.rng, action);
             return Ok(());
         }
         let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
@@ -279,37 +268,24 @@ impl Agent for Td3 {
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
-        self.buffer.push(transition)?;
-        self.num_timesteps += 1;
-        Ok(())
+        self.experience.observe(transition)
     }
 
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
-        let n = self.num_timesteps;
-        if n <= self.config.learning_starts || !n.is_multiple_of(self.config.train_freq) {
-            return Ok(None);
-        }
-        let mut last = None;
-        for _ in 0..self.config.gradient_steps {
-            last = Some(self.gradient_step()?);
-        }
-        Ok(last)
+        self.schedule().run(self.experience.num_timesteps, || self.gradient_step())
     }
 
     fn save(&self, dir: &Path) -> Result<(), RlError> {
         save_net(dir, "actor", &self.actor, Some(&self.actor_opt))?;
         save_net(dir, "actor_target", &self.actor_target, None)?;
-        save_net(dir, "q1", &self.q1, Some(&self.q1_opt))?;
-        save_net(dir, "q2", &self.q2, Some(&self.q2_opt))?;
-        save_net(dir, "q1_target", &self.q1_target, None)?;
-        save_net(dir, "q2_target", &self.q2_target, None)?;
-        self.buffer.save(&dir.join("replay.bin"))?;
+        self.critics.save(dir)?;
+        self.experience.buffer.save(&dir.join("replay.bin"))?;
         let state = Td3State {
             algo: "td3".into(),
             config: self.config.clone(),
             obs_dim: self.obs_dim,
             act_dim: self.act_dim,
-            num_timesteps: self.num_timesteps,
+            num_timesteps: self.experience.num_timesteps,
             n_updates: self.n_updates,
             rng: self.rng.clone(),
         };
@@ -319,26 +295,13 @@ impl Agent for Td3 {
     fn load(&mut self, dir: &Path) -> Result<(), RlError> {
         let path = dir.join("state.json");
         let state: Td3State = read_json(&path)?;
-        if state.algo != "td3"
-            || state.config != self.config
-            || (state.obs_dim, state.act_dim) != (self.obs_dim, self.act_dim)
-        {
-            return Err(RlError::checkpoint(
-                &path,
-                format!(
-                    "saved by {} with dims {}/{} and another configuration than this agent's (td3, {}/{})",
-                    state.algo, state.obs_dim, state.act_dim, self.obs_dim, self.act_dim
-                ),
-            ));
-        }
+        let dims = (state.obs_dim, state.act_dim);
+        check_saved(&path, &state.algo, dims, state.config == self.config, self.identity())?;
         load_net(dir, "actor", &mut self.actor, Some(&mut self.actor_opt))?;
         load_net(dir, "actor_target", &mut self.actor_target, None)?;
-        load_net(dir, "q1", &mut self.q1, Some(&mut self.q1_opt))?;
-        load_net(dir, "q2", &mut self.q2, Some(&mut self.q2_opt))?;
-        load_net(dir, "q1_target", &mut self.q1_target, None)?;
-        load_net(dir, "q2_target", &mut self.q2_target, None)?;
-        self.buffer.load(&dir.join("replay.bin"))?;
-        self.num_timesteps = state.num_timesteps;
+        self.critics.load(dir)?;
+        self.experience.buffer.load(&dir.join("replay.bin"))?;
+        self.experience.num_timesteps = state.num_timesteps;
         self.n_updates = state.n_updates;
         self.rng = state.rng;
         Ok(())
@@ -389,12 +352,12 @@ mod tests {
     fn the_actor_and_targets_move_every_policy_delay_updates() {
         let mut td3 = filled(false);
         let actor0 = td3.actor.params().to_vec();
-        let target0 = td3.q1_target.params().to_vec();
+        let target0 = td3.critics[0].target.params().to_vec();
         assert!(td3.gradient_step().unwrap().actor_loss.is_none());
         assert_eq!(td3.actor.params(), &actor0[..]);
-        assert_eq!(td3.q1_target.params(), &target0[..]);
+        assert_eq!(td3.critics[0].target.params(), &target0[..]);
         assert!(td3.gradient_step().unwrap().actor_loss.is_some());
         assert_ne!(td3.actor.params(), &actor0[..]);
-        assert_ne!(td3.q1_target.params(), &target0[..]);
+        assert_ne!(td3.critics[0].target.params(), &target0[..]);
     }
 }
