@@ -63,7 +63,7 @@ fn dynamics_observe_allocates_nothing_once_warm() {
         buffer_size: 1000,
         batch_size: 32,
         hidden: vec![64, 64],
-        ..DynamicsConfig::default()
+        ..DynamicsConfig::spec_schedule()
     };
     let mut model = DynamicsModel::new(4, 2, cfg, &mut rng).unwrap();
     model.set_parallelism(defender_nn::Parallelism::Sequential);
