@@ -75,6 +75,27 @@ impl RunDir {
         Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics })
     }
 
+    /// Opens the files of a run being resumed as they are, so that nothing in them is lost
+    /// before [`RunDir::create`] restarts them from the checkpoint's records (rewriting
+    /// `updates.csv` here would drop the rows up to the checkpoint, which it cannot recompute).
+    pub fn reopen(root: &Path, dynamics: bool) -> Result<Self> {
+        let open = |name: &str| {
+            let path = root.join(name);
+            OpenOptions::new()
+                .append(true)
+                .create(true)
+                .open(&path)
+                .with_context(|| format!("cannot open {}", path.display()))
+        };
+        Ok(Self {
+            root: root.to_path_buf(),
+            metrics: open(METRICS_FILE)?,
+            eval: open(EVAL_FILE)?,
+            updates: open(UPDATES_FILE)?,
+            dynamics: if dynamics { Some(open(DYNAMICS_FILE)?) } else { None },
+        })
+    }
+
     /// Starts a CSV whose first column is `total_steps` with its rows up to `total_steps` (a
     /// run started before the file existed starts it empty).
     fn restart_csv(path: &Path, header: &str, total_steps: u64) -> Result<File> {

@@ -253,7 +253,12 @@ fn a_larger_budget_extends_a_stopped_run_everywhere() {
     let out = root.path().join("extend");
     let mut child = spawn(&args_ref(&run_args(&out)));
     let start = Instant::now();
-    while !out.join("checkpoint/trainer.json").exists() && start.elapsed() < Duration::from_secs(60) {
+    let has_first_rows = || {
+        ["updates.csv", "dynamics.csv"]
+            .iter()
+            .all(|f| std::fs::read_to_string(out.join(f)).is_ok_and(|t| t.contains("\n1000,")))
+    };
+    while !has_first_rows() && start.elapsed() < Duration::from_secs(120) {
         std::thread::sleep(Duration::from_millis(50));
     }
     signal(&child, "TERM");
@@ -264,6 +269,12 @@ fn a_larger_budget_extends_a_stopped_run_everywhere() {
     assert_eq!(summary(&out)["steps"].as_u64(), Some(3000));
     let eval = std::fs::read_to_string(out.join("eval.csv")).unwrap();
     assert!(eval.lines().last().unwrap().starts_with("3000,"), "{eval}");
+    // Stopped after its first rows, the run keeps every row it had written.
+    for file in ["updates.csv", "dynamics.csv"] {
+        let text = std::fs::read_to_string(out.join(file)).unwrap();
+        let steps: Vec<&str> = text.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+        assert_eq!(steps, ["1000", "2000", "3000"], "{file}:\n{text}");
+    }
 }
 
 #[test]

@@ -280,7 +280,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
 
     let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
         .with_checkpoint_dir(&checkpoint_dir);
-    let mut hooks = TrainHooks::new(&args.out, &config, budget, stop.clone(), recorder, built.dynamics)?;
+    let run_dir = if resuming {
+        RunDir::reopen(&args.out, built.dynamics.is_some())?
+    } else {
+        RunDir::create(&args.out, &[], &[], 0, built.dynamics.is_some())?
+    };
+    let mut hooks = TrainHooks::new(run_dir, &config, budget, stop.clone(), recorder, built.dynamics);
     if resuming {
         trainer.resume(&checkpoint_dir, &mut hooks)?;
         if trainer.config().budget != budget {
@@ -369,19 +374,19 @@ struct TrainHooks {
 
 impl TrainHooks {
     fn new(
-        out: &Path,
+        run_dir: RunDir,
         config: &RunConfig,
         budget: Budget,
         stop: StopRequest,
         recorder: Option<TrainingRecorder>,
         dynamics: Option<defender::DynamicsHandle>,
-    ) -> Result<Self> {
+    ) -> Self {
         let (total, unit, by_steps) = match budget {
             Budget::Steps(s) => (s, "steps", true),
             Budget::Episodes(e) => (e, "episodes", false),
         };
-        Ok(Self {
-            run_dir: RunDir::create(out, &[], &[], 0, dynamics.is_some())?,
+        Self {
+            run_dir,
             config: config.clone(),
             bar: progress::bar(total, unit),
             by_steps,
@@ -391,7 +396,7 @@ impl TrainHooks {
             updates: UpdateLog::default(),
             dynamics,
             error: None,
-        })
+        }
     }
 
     /// After a resume: the files restart from the checkpoint's records.
