@@ -4,14 +4,18 @@ use std::num::NonZeroUsize;
 
 use faer::Par;
 
-/// Below this many multiply-adds a GEMM runs on one thread whatever the setting: splitting it
-/// costs more than it saves (a batch-1 forward, the 14-wide first layer of a critic).
-const PARALLEL_MIN_MACS: usize = 64 * 64 * 64;
+/// Below this many multiply-adds a GEMM runs on one thread whatever the setting: waking a second
+/// thread costs more than it saves. Measured on the 2-core machine (docs/benchmarks.md, "Small
+/// GEMMs on one thread"): at the former 64^3 threshold a SAC step on Hopper-v5 took 7.6 ms, with
+/// the critics' 14-wide first layer (256x14x256) and the dynamics model's batch-64 layers
+/// (64x256x256) split; with these on one thread, 5.2 ms. A 256x256 layer over a batch of 256
+/// still gains from two threads.
+const PARALLEL_MIN_MACS: usize = 128 * 256 * 256;
 
 /// The threading of a network's matrix products.
 ///
 /// Element-wise passes always run on the calling thread; only GEMMs big enough to gain
-/// (>= 64^3 multiply-adds) are split. Results are bit-identical for every setting: faer splits
+/// (>= 128x256x256 multiply-adds) are split. Results are bit-identical for every setting: faer splits
 /// the output, never the reduction (tested).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Parallelism {

@@ -163,9 +163,9 @@ fn threads_do_not_change_results_and_batches_reuse_buffers() {
     let out_par = par.forward(x.as_ref()).to_owned();
     let forward_gemms = gemms() - before;
     let gi_par = par.backward(g.as_ref()).to_owned();
-    // These shapes go parallel: every layer of the forward pass (14x256 and 256x256 over a batch
-    // of 256 are above the threshold) and the backward products; so the comparison is real.
-    assert!(forward_gemms >= 2, "only {forward_gemms} parallel GEMMs in the forward pass");
+    // These shapes go parallel: the 256x256 layer over a batch of 256 (above the threshold; the
+    // 14x256 layer is below it) and the backward products; so the comparison is real.
+    assert!(forward_gemms >= 1, "no parallel GEMM in the forward pass");
     assert!(gemms() - before > forward_gemms, "no parallel GEMM in the backward pass");
     assert_eq!(out_seq, out_par);
     assert_eq!(gi_seq, gi_par);
