@@ -4,7 +4,7 @@
 
 use std::str::FromStr;
 
-use defender::Mode;
+use defender::{Mode, Strategy};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -17,6 +17,34 @@ pub(crate) fn parse_name<T: FromStr<Err = defender::DefenderError>>(s: &str, wha
 }
 
 /// `mode`: `"state"` or `"state-action"`.
+/// An optional list of strategy names (`None`: all of them; an empty list is refused).
+pub(crate) fn parse_strategies(names: Option<Vec<String>>) -> PyResult<Option<Vec<Strategy>>> {
+    let list = names
+        .map(|l| l.iter().map(|s| parse_name(s, "strategies")).collect::<PyResult<Vec<_>>>())
+        .transpose()?;
+    if list.as_ref().is_some_and(Vec::is_empty) {
+        return Err(DefenderError::new_err("strategies: an empty list (give None for all of them)"));
+    }
+    Ok(list)
+}
+
+/// A ranked table's row as a dict, started with the columns every table has: `rank`, `strategy`,
+/// its `safe` and `unsafe` methods and `mode`.
+pub(crate) fn strategy_row<'py>(
+    py: Python<'py>,
+    rank: usize,
+    strategy: &Strategy,
+    mode: Mode,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("rank", rank)?;
+    d.set_item("strategy", strategy.to_string())?;
+    d.set_item("safe", strategy.safe.to_string())?;
+    d.set_item("unsafe", strategy.unsafe_.to_string())?;
+    d.set_item("mode", mode.to_string())?;
+    Ok(d)
+}
+
 pub(crate) fn parse_mode(s: &str) -> PyResult<Mode> {
     parse_name(s, "mode")
 }

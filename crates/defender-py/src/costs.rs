@@ -6,7 +6,9 @@ use defender_dtw::Dtw;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::checks::{check_rows, parse_mode, parse_name, read_sequence, read_transitions};
+use crate::checks::{
+    check_rows, parse_mode, parse_name, parse_strategies, read_sequence, read_transitions, strategy_row,
+};
 use crate::episodes::episode_set_arg;
 use crate::select::on_local_pool;
 use crate::{DefenderError, defender_err, guard};
@@ -160,12 +162,7 @@ pub(crate) fn ablate<'py>(
     let mode = parse_mode(mode)?;
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episode_set_arg(episodes, "episodes")?;
-    let list = strategies
-        .map(|l| l.iter().map(|s| parse_name::<Strategy>(s, "strategies")).collect::<PyResult<Vec<_>>>())
-        .transpose()?;
-    if list.as_ref().is_some_and(|l| l.is_empty()) {
-        return Err(DefenderError::new_err("strategies: an empty list (give None for all 576)"));
-    }
+    let list = parse_strategies(strategies)?;
     let rows = guard("ablate", || {
         py.detach(|| {
             on_local_pool(|| {
@@ -186,12 +183,7 @@ pub(crate) fn ablate<'py>(
     }
     let out = PyList::empty(py);
     for r in &rows {
-        let d = PyDict::new(py);
-        d.set_item("rank", r.rank)?;
-        d.set_item("strategy", r.strategy.to_string())?;
-        d.set_item("safe", r.strategy.safe.to_string())?;
-        d.set_item("unsafe", r.strategy.unsafe_.to_string())?;
-        d.set_item("mode", r.mode.to_string())?;
+        let d = strategy_row(py, r.rank, &r.strategy, r.mode)?;
         d.set_item("mean_ratio", r.mean_ratio)?;
         d.set_item("safe_rate", r.safe_rate)?;
         d.set_item("score", r.score)?;

@@ -9,7 +9,7 @@ use defender::{EpisodeSet, Mode};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::checks::{parse_mode, parse_name};
+use crate::checks::{parse_mode, parse_strategies, strategy_row};
 use crate::episodes::episode_set_arg;
 use crate::{DefenderError, defender_err, guard};
 
@@ -125,12 +125,7 @@ pub(crate) fn select_strategies<'py>(
     let mode = parse_mode(mode)?;
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episodes.filter(|e| !e.is_none()).map(|e| episode_set_arg(e, "episodes")).transpose()?;
-    let strategies = strategies
-        .map(|l| l.iter().map(|s| parse_name(s, "strategies")).collect::<PyResult<Vec<_>>>())
-        .transpose()?;
-    if strategies.as_ref().is_some_and(Vec::is_empty) {
-        return Err(DefenderError::new_err("strategies: an empty list (give None for all of them)"));
-    }
+    let strategies = parse_strategies(strategies)?;
     let config = SelectionConfig {
         mode,
         num_demos,
@@ -150,12 +145,7 @@ pub(crate) fn select_strategies<'py>(
 fn dict_rows<'py>(py: Python<'py>, selection: &Selection) -> PyResult<Bound<'py, PyAny>> {
     let out = PyList::empty(py);
     for r in &selection.rows {
-        let d = PyDict::new(py);
-        d.set_item("rank", r.rank)?;
-        d.set_item("strategy", r.strategy.to_string())?;
-        d.set_item("safe", r.strategy.safe.to_string())?;
-        d.set_item("unsafe", r.strategy.unsafe_.to_string())?;
-        d.set_item("mode", r.mode.to_string())?;
+        let d = strategy_row(py, r.rank, &r.strategy, r.mode)?;
         d.set_item("false_alarm_rate", r.false_alarm_rate)?;
         d.set_item("crash_prevention_rate", r.crash_prevention_rate)?;
         d.set_item("safe_allowed", r.safe_allowed)?;
