@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use defender::selection::StrategyChoice;
 use defender::{DefenderEnv, EpisodeRecorder, EpisodeSet, Meta};
-use defender_rl::{Agent, AlgoConfig, Env, EpisodeRecord, Outcome, SeedPurpose, Transition, derive_seed};
+use defender_rl::{
+    Agent, AlgoConfig, Env, EpisodeRecord, Outcome, Parallelism, SeedPurpose, Transition, derive_seed,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -37,6 +39,17 @@ pub struct Built {
     pub defender: Option<DefenderSection>,
     /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
     pub dynamics: Option<defender::DynamicsHandle>,
+}
+
+/// Whether a run trains DEFENDER's dynamics model on a thread of its own: when its configuration
+/// asks (`background = true`), and whenever the networks use two or more threads. The model
+/// learns the same bit for bit either way (`crates/defender/src/dynamics_worker.rs`), so this
+/// is a matter of speed only, like the networks' threads: with two, the model's small products
+/// inline leave the second core waiting, on its own thread they fill it (98% against 108-111%
+/// Time; docs/decisions.md, "The dynamics model on its own thread"). With one network thread (a
+/// sweep's runs, one core each) the model stays inline, off the other runs' core.
+pub fn model_on_own_thread(requested: bool, networks: Parallelism) -> bool {
+    requested || networks.num_threads() >= 2
 }
 
 /// Builds the agent and the environments of a run, and returns with them the `[defender]` section
@@ -75,7 +88,8 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
         section.strategy = strategy.into();
         section.selection = Some(record);
     }
-    let config = section.to_config()?;
+    let mut config = section.to_config()?;
+    config.dynamics.background = model_on_own_thread(config.dynamics.background, Parallelism::default());
     let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Wrapper, 0));
     let wrapped = DefenderEnv::new(task, &demos, config, &mut rng)?;
     section.r_task = Some(wrapped.r_task());

@@ -303,3 +303,50 @@ fn collect_train_ablate_report() {
     let table = ok(&["report", root.join("runs").to_str().unwrap()]);
     assert!(table.contains("MeanBothW5"), "{table}");
 }
+
+/// `defender train` trains the dynamics model on its own thread when the networks have two
+/// threads, inline with one (`setup::model_on_own_thread`): a matter of speed only. The same
+/// DEFENDER run both ways writes the same files (but the wall-clock column).
+#[test]
+fn one_or_two_threads_and_the_model_on_its_own_thread_change_nothing_a_run_writes() {
+    let root = tempfile::tempdir().unwrap();
+    let config = root.path().join("run.toml");
+    std::fs::write(&config, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\n"))
+        .unwrap();
+    let run = |threads: &str| {
+        let out = root.path().join(format!("threads-{threads}"));
+        let args = [
+            "train",
+            "--config",
+            config.to_str().unwrap(),
+            "--strategy",
+            "MinDemoW5/MinDemoW10",
+            "--steps",
+            "2000",
+            "--eval-freq",
+            "1000",
+            "--seed",
+            "5",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let done = Command::new(env!("CARGO_BIN_EXE_defender"))
+            .args(args)
+            .env("DEFENDER_NN_THREADS", threads)
+            .output()
+            .expect("run defender");
+        assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+        let without_wall = |name: &str| -> Vec<String> {
+            let text = std::fs::read_to_string(out.join(name)).unwrap();
+            text.lines().map(|l| l.rsplit_once(',').map_or(l, |(head, _)| head).to_string()).collect()
+        };
+        let whole = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+        (without_wall("metrics.csv"), whole("eval.csv"), whole("updates.csv"), whole("dynamics.csv"))
+    };
+    let (inline, own_thread) = (run("1"), run("2"));
+    assert!(inline.2.lines().count() >= 3 && inline.3.lines().count() >= 3, "no rows: {inline:?}");
+    assert_eq!(inline.0, own_thread.0, "metrics.csv");
+    assert_eq!(inline.1, own_thread.1, "eval.csv");
+    assert_eq!(inline.2, own_thread.2, "updates.csv");
+    assert_eq!(inline.3, own_thread.3, "dynamics.csv");
+}

@@ -50,7 +50,8 @@ pub struct DynamicsConfig {
     pub error_ema_alpha: f64,
     /// [`DefenderEnv`](crate::DefenderEnv) trains the model on a thread of its own, concurrently
     /// with the agent's update (another core), with the same result bit for bit; off by default
-    /// (one run, one thread). The model alone ignores it.
+    /// here (one run, one thread; `defender train` turns it on when its networks have two or more
+    /// threads). The model alone ignores it.
     pub background: bool,
 }
 

@@ -59,7 +59,8 @@ pub struct TrainArgs {
     pub r_task: Option<f64>,
     /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
     /// updates: same results bit for bit, less wall time when a core is free
-    /// ([defender.dynamics] background = true).
+    /// ([defender.dynamics] background = true). The default already when the networks use two
+    /// or more threads (DEFENDER_NN_THREADS, else min(2, cores)).
     #[arg(long)]
     pub dynamics_thread: bool,
     /// Train DEFENDER's dynamics model on SPEC section 5's schedule, one gradient step of batch

@@ -120,7 +120,7 @@ impl Bench {
                 let config = DefenderConfig {
                     strategy: *strategy,
                     mode: *mode,
-                    dynamics: schedule.config(),
+                    dynamics: schedule.config(self.par),
                     ..DefenderConfig::default()
                 };
                 let mut rng = ChaCha8Rng::seed_from_u64(SEED);
@@ -230,7 +230,7 @@ impl Bench {
     fn dynamics_step(&self, schedule: Schedule) -> anyhow::Result<(f64, f64)> {
         let (obs_dim, act_dim) = (11, 3);
         let mut rng = ChaCha8Rng::seed_from_u64(SEED);
-        let mut model = DynamicsModel::new(obs_dim, act_dim, schedule.config(), &mut rng)?;
+        let mut model = DynamicsModel::new(obs_dim, act_dim, schedule.config(self.par), &mut rng)?;
         model.set_parallelism(self.par);
         let (warm, timed) = if self.quick { (300, 300) } else { (300, 1000) };
         let (obs, act) = walk(&mut rng, warm + timed, obs_dim, act_dim);
@@ -279,7 +279,7 @@ impl Bench {
             pct.push(t.ms_per_step() / bare_ms * 100.0);
             let target = match schedule {
                 Schedule::Untrained | Schedule::Spec => None,
-                Schedule::Default | Schedule::SpecBackground => Some(105.0),
+                Schedule::Default | Schedule::SpecBackground | Schedule::DefaultInline => Some(105.0),
             };
             let what = format!("SAC + DEFENDER {strategy}, {}", schedule.text());
             rows.push(defender_row(Figure::Dynamics.name(), &t, bare_ms, what, target));
@@ -321,8 +321,13 @@ const OVERHEAD_CASES: [(&str, Mode, f64); 6] = [
 /// The strategy and the dynamics-model schedules of the `dynamics` figure (`dynamics` reads
 /// the first three in this order).
 const DYNAMICS_STRATEGY: &str = "MeanDemoW5/MeanDemoW10";
-const SCHEDULES: [Schedule; 4] =
-    [Schedule::Spec, Schedule::Untrained, Schedule::Default, Schedule::SpecBackground];
+const SCHEDULES: [Schedule; 5] = [
+    Schedule::Spec,
+    Schedule::Untrained,
+    Schedule::Default,
+    Schedule::SpecBackground,
+    Schedule::DefaultInline,
+];
 
 fn find(runs: &[(RunKind, u8, Timing)], kind: &RunKind, replica: u8) -> anyhow::Result<Timing> {
     runs.iter()

@@ -34,8 +34,9 @@ Figures (names for --only, in the order they run):
   sac, td3   training steps/s on Hopper-v5, env step + one update (targets 150 / 200)
   overhead   DEFENDER's % Time for SAC on Hopper-v5, the paper's 3 state strategies in both
              modes, default settings (targets <= 105 % state, <= 115 % state-action)
-  dynamics   the dynamics model's share of the overhead: SPEC's schedule against the default,
-             and SPEC's on its own thread ([defender.dynamics] background = true)
+  dynamics   the dynamics model's share of the overhead: SPEC's schedule against the default
+             (as `defender train` runs it: on the model's own thread with 2+ network threads),
+             the default on the calling thread, and SPEC's on the model's own thread
 
 DTW and the filter per step are measured by the crates' criterion benches:
   cargo bench -p defender-dtw; cargo bench -p defender --bench filter

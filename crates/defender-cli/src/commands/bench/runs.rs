@@ -2,15 +2,20 @@
 //! strategy, mode and dynamics-model schedule.
 
 use defender::{DynamicsConfig, Mode, Strategy};
-use defender_rl::Algo;
+use defender_rl::{Algo, Parallelism};
+
+use crate::setup::model_on_own_thread;
 
 // Training runs.
 
 /// The dynamics model's schedule in a DEFENDER run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Schedule {
-    /// The default (`DynamicsConfig::default()`).
+    /// The default, where `defender train` runs it: `DynamicsConfig::default()`, on the model's
+    /// own thread when the networks have two or more ([`model_on_own_thread`]).
     Default,
+    /// The default on the calling thread.
+    DefaultInline,
     /// SPEC section 5's: one gradient step on a batch of 256 per real step.
     Spec,
     /// Never trained (`train_freq` = 10^9): the filter and the wrapper alone.
@@ -20,10 +25,14 @@ pub(super) enum Schedule {
 }
 
 impl Schedule {
-    pub(super) fn config(self) -> DynamicsConfig {
+    /// The model's configuration in a run whose networks use `par`.
+    pub(super) fn config(self, par: Parallelism) -> DynamicsConfig {
         let spec = DynamicsConfig::spec_schedule();
         match self {
-            Schedule::Default => DynamicsConfig::default(),
+            Schedule::Default => {
+                DynamicsConfig { background: model_on_own_thread(false, par), ..DynamicsConfig::default() }
+            }
+            Schedule::DefaultInline => DynamicsConfig::default(),
             Schedule::Spec => spec,
             Schedule::Untrained => DynamicsConfig { train_freq: 1_000_000_000, ..spec },
             Schedule::SpecBackground => DynamicsConfig { background: true, ..spec },
@@ -39,6 +48,7 @@ impl Schedule {
             Schedule::Spec => "dynamics model as SPEC (batch 256 every real step)".into(),
             Schedule::Untrained => "dynamics model not trained".into(),
             Schedule::SpecBackground => "dynamics model as SPEC, on its own thread".into(),
+            Schedule::DefaultInline => "dynamics model as default, on the calling thread".into(),
         }
     }
 }
