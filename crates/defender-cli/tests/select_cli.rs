@@ -189,7 +189,12 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
         report.contains("seed 1: strategy chosen by --strategy auto (held-out demonstrations:"),
         "{report}"
     );
+    // The table names the choice as automatic, in a row of its own.
+    let (safe, unsafe_) = best.split_once('/').unwrap();
+    let row = format!("| SAC       | auto: {safe}");
+    assert!(report.contains(&row) && report.contains(unsafe_), "{report}");
     let run_loaded = defender_report::Run::load(&run).unwrap();
+    assert!(run_loaded.config.filter.as_ref().unwrap().auto);
     let selection = run_loaded.summary.selection.unwrap();
     assert_eq!((selection.false_alarm_rate, selection.crash_prevention_rate), (fa, cp));
 

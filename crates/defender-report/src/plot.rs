@@ -138,7 +138,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let label = |filter: Option<&DefenderSettings>, seeds: usize| {
             let mut text = match filter {
                 None => format!("{} (bare)", algo.to_uppercase()),
-                Some(f) => f.strategy.clone(),
+                Some(f) => f.name(),
             };
             if let Some(f) = filter {
                 if modes.len() > 1 {

@@ -97,9 +97,11 @@ fn markdown(table: &Table) -> String {
             header.extend(["Acc Reward", "% Crash", "% Time", "Seeds"]);
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
             for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
-                let (safe, unsafe_) =
-                    row.filter.as_ref().map_or(("-", "-"), |f: &DefenderSettings| (f.safe(), f.unsafe_()));
-                let mut line = vec![row.algo.to_uppercase(), safe.to_string(), unsafe_.to_string()];
+                let (safe, unsafe_) = row
+                    .filter
+                    .as_ref()
+                    .map_or(("-".to_string(), "-"), |f: &DefenderSettings| (f.safe_cell(), f.unsafe_()));
+                let mut line = vec![row.algo.to_uppercase(), safe, unsafe_.to_string()];
                 if demos {
                     line.push(demos_text(row));
                 }
@@ -251,7 +253,7 @@ fn latex(table: &Table) -> String {
                         );
                     }
                     Some(f) => {
-                        let _ = write!(out, "{} & {}", tex_escape(f.safe()), tex_escape(f.unsafe_()));
+                        let _ = write!(out, "{} & {}", tex_escape(&f.safe_cell()), tex_escape(f.unsafe_()));
                         if demos {
                             let _ = write!(out, " & {}", f.num_demos.map_or("?".into(), |n| n.to_string()));
                         }

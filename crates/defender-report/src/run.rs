@@ -49,9 +49,23 @@ pub struct DefenderSettings {
     pub mode: Mode,
     /// Demonstrations used per group, when given.
     pub num_demos: Option<u64>,
+    /// The strategy was chosen by `--strategy auto` (`config.toml` has `[defender.selection]`):
+    /// such runs form rows of their own, labelled `auto: SAFE/UNSAFE`.
+    pub auto: bool,
 }
 
 impl DefenderSettings {
+    /// The strategy as a table or plot names it: `SAFE/UNSAFE`, or `auto: SAFE/UNSAFE`.
+    pub fn name(&self) -> String {
+        if self.auto { format!("auto: {}", self.strategy) } else { self.strategy.clone() }
+    }
+
+    /// The safe group's column of a table: [`DefenderSettings::safe`], marked `auto: ` when
+    /// chosen automatically.
+    pub fn safe_cell(&self) -> String {
+        if self.auto { format!("auto: {}", self.safe()) } else { self.safe().to_string() }
+    }
+
     /// The strategy of the safe group (before the `/`).
     pub fn safe(&self) -> &str {
         self.strategy.split_once('/').map_or(self.strategy.as_str(), |(s, _)| s)
@@ -456,6 +470,7 @@ struct RawDefender {
     strategy: String,
     mode: String,
     num_demos: Option<u64>,
+    selection: Option<toml::Table>,
 }
 
 fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
@@ -483,7 +498,12 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
                     d.strategy
                 )));
             }
-            Some(DefenderSettings { strategy: d.strategy, mode, num_demos: d.num_demos })
+            Some(DefenderSettings {
+                strategy: d.strategy,
+                mode,
+                num_demos: d.num_demos,
+                auto: d.selection.is_some(),
+            })
         }
     };
     Ok(RunSettings { env: raw.env, algo: raw.algo, seed: raw.seed, budget, filter })

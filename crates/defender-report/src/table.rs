@@ -44,7 +44,7 @@ impl Row {
         let algo = self.algo.to_uppercase();
         match &self.filter {
             None => format!("{} {algo} ({})", self.env, self.budget),
-            Some(f) => format!("{} {algo} {} ({}, {})", self.env, f.strategy, f.mode, self.budget),
+            Some(f) => format!("{} {algo} {} ({}, {})", self.env, f.name(), f.mode, self.budget),
         }
     }
 
@@ -65,7 +65,7 @@ pub struct Table {
     pub notes: Vec<String>,
 }
 
-type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>)>);
+type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>, bool)>);
 
 impl Table {
     /// Aggregates `runs` over seeds.
@@ -73,7 +73,7 @@ impl Table {
         let mut groups: BTreeMap<GroupKey, Vec<&Run>> = BTreeMap::new();
         for run in runs {
             let c = &run.config;
-            let filter = c.filter.as_ref().map(|f| (f.mode, f.strategy.clone(), f.num_demos));
+            let filter = c.filter.as_ref().map(|f| (f.mode, f.strategy.clone(), f.num_demos, f.auto));
             groups.entry((c.env.clone(), c.algo.clone(), c.budget, filter)).or_default().push(run);
         }
         // Wall-clock time of each bare run, by (task, algorithm, budget, seed).
