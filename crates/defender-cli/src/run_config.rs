@@ -76,6 +76,23 @@ impl RunConfig {
             _ => bail!("give a budget in steps or in episodes, not both"),
         }
     }
+
+    /// This request as it applies to `saved`, a run already started: `strategy = "auto"` asks
+    /// for the strategy the selection chose when that run began (its `config.toml` holds the
+    /// choice and `[defender.selection]`), so it takes that choice rather than choosing again.
+    /// The selection is part of the run; making it again on a resume (or comparing `auto` with
+    /// the chosen name when a sweep checks a complete run) would change or refuse the run.
+    #[must_use]
+    pub fn keeping_automatic_choice_of(mut self, saved: &RunConfig) -> Self {
+        if let (Some(requested), Some(saved)) = (self.defender.as_mut(), saved.defender.as_ref())
+            && requested.strategy == StrategyChoice::Auto
+            && saved.selection.is_some()
+        {
+            requested.strategy = saved.strategy;
+            requested.selection.clone_from(&saved.selection);
+        }
+        self
+    }
 }
 
 /// Reads a TOML run configuration, refusing unknown keys.

@@ -146,3 +146,44 @@ fn output_into_a_closed_pipe_ends_quietly() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// A run whose strategy `auto` chose is resumed, and later skipped as complete, under that
+/// choice: the experiment still says `auto`, the run's `config.toml` names the strategy chosen,
+/// and neither the resume nor the completeness check may read that as a changed configuration.
+#[test]
+fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
+    let root = tempfile::tempdir().unwrap();
+    let experiment = root.path().join("auto.toml");
+    std::fs::write(
+        &experiment,
+        "[grid]\nenvs = [\"InvertedDoublePendulum-v5\"]\nstrategies = [\"auto\"]\nnum_demos = [3]\nseeds = [0]\n\n\
+         [budget]\nsteps = 3000\n\n[run]\neval_freq = 1000\ncheckpoint_every_episodes = 10\n",
+    )
+    .unwrap();
+    let out = root.path().join("sweep");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_defender"))
+        .args(["sweep", s(&experiment), "--out", s(&out)])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let run = out.join("InvertedDoublePendulum-v5/sac-auto-n3-s0");
+    let start = Instant::now();
+    while !run.join("checkpoint/trainer.json").exists() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(143));
+    let chosen = |dir: &Path| -> toml::Value {
+        toml::from_str(&std::fs::read_to_string(dir.join("config.toml")).unwrap()).unwrap()
+    };
+    let before = chosen(&run);
+    assert_eq!(before["defender"]["selection"]["chosen_by"].as_str(), Some("auto"));
+
+    let again = defender(&["sweep", s(&experiment), "--out", s(&out)]);
+    assert!(again.status.success(), "{}", text(&again));
+    assert!(text(&again).contains("1 resumed"), "{}", text(&again));
+    assert_eq!(chosen(&run)["defender"], before["defender"], "the resumed run chose again");
+    let third = defender(&["sweep", s(&experiment), "--out", s(&out)]);
+    assert!(text(&third).contains("1 complete, 0 to run"), "{}", text(&third));
+}

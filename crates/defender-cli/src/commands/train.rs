@@ -203,11 +203,8 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
 /// Applies the flags that configure DEFENDER over a `[defender]` section.
 fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
     if let Some(choice) = args.strategy {
-        // `auto` over a strategy already chosen automatically (a resumed run) keeps the choice.
-        if !(choice == StrategyChoice::Auto && section.selection.is_some()) {
-            section.strategy = choice;
-            section.selection = None;
-        }
+        section.strategy = choice;
+        section.selection = None;
     }
     if let Some(mode) = args.mode {
         section.mode = mode;
@@ -328,7 +325,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
         Some(file) => read_config(file)?,
         None => saved.clone(),
     };
-    let requested = apply_flags(base, args)?;
+    let requested = apply_flags(base, args)?.keeping_automatic_choice_of(&saved);
     resume::refuse_changes(&args.out, &saved, &requested)?;
     let mut config = saved;
     config.total_steps = requested.total_steps;

@@ -31,6 +31,7 @@ fn operational(key: &str) -> bool {
 /// How the complete run in `dir` differs from `planned`, as `key: run -> experiment` lines.
 pub fn differences(dir: &Path, planned: &RunConfig) -> Result<Vec<String>> {
     let saved = read_config(&dir.join("config.toml"))?;
+    let planned = &planned.clone().keeping_automatic_choice_of(&saved);
     let mut diffs: Vec<String> = crate::resume::differences(&saved, planned, true)?
         .into_iter()
         .filter(|line| !operational(line.split(':').next().unwrap_or_default()))
