@@ -146,11 +146,12 @@ pub(crate) fn trajectory_costs<'py>(
     Ok(d)
 }
 
-/// `ablate(demos, episodes, mode, strategies, as_numpy)`: the offline ablation of SPEC section 7
-/// (all 576 strategies, or the given list), ranked. Returns a list of dicts (rank, strategy,
-/// safe, unsafe, mode, mean_ratio, safe_rate, score) or, with `as_numpy`, a dict of arrays.
+/// `ablate(demos, episodes, mode, strategies, as_numpy, threads)`: the offline ablation of SPEC
+/// section 7 (all 576 strategies, or the given list), ranked. Returns a list of dicts (rank,
+/// strategy, safe, unsafe, mode, mean_ratio, safe_rate, score) or, with `as_numpy`, a dict of
+/// arrays. `threads`: how many cores replay the episodes (`None`: all).
 #[pyfunction]
-#[pyo3(signature = (demos, episodes, mode = "state", strategies = None, as_numpy = false))]
+#[pyo3(signature = (demos, episodes, mode = "state", strategies = None, as_numpy = false, threads = None))]
 pub(crate) fn ablate<'py>(
     py: Python<'py>,
     demos: &Bound<'py, PyAny>,
@@ -158,6 +159,7 @@ pub(crate) fn ablate<'py>(
     mode: &str,
     strategies: Option<Vec<String>>,
     as_numpy: bool,
+    threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let mode = parse_mode(mode)?;
     let demos = episode_set_arg(demos, "demos")?;
@@ -165,7 +167,7 @@ pub(crate) fn ablate<'py>(
     let list = parse_strategies(strategies)?;
     let rows = guard("ablate", || {
         py.detach(|| {
-            on_local_pool(|| {
+            on_local_pool(threads, || {
                 defender::ablate(&demos, &episodes, list.as_deref(), mode, CostOptions::default(), &|_| {})
             })
         })?

@@ -15,9 +15,13 @@ use crate::{DefenderError, defender_err, guard};
 
 /// Runs `f` on a rayon pool of its own, dropped when `f` returns, instead of rayon's global pool:
 /// the global pool does not survive `fork()`, and vector environments fork (docs/decisions.md,
-/// "The Python front").
-pub(crate) fn on_local_pool<T: Send>(f: impl FnOnce() -> T + Send) -> PyResult<T> {
-    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+/// "The Python front"). `threads`: the pool's size (a Ray task given one CPU asks for 1);
+/// `None`: every core.
+pub(crate) fn on_local_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    if threads == Some(0) {
+        return Err(DefenderError::new_err("threads: 0; give at least 1 (or None for every core)"));
+    }
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("defender-select-{i}"))
@@ -79,7 +83,7 @@ pub(crate) fn choose_auto(
     let config = SelectionConfig { mode, num_demos, equal: false, ..SelectionConfig::default() };
     let start = Instant::now();
     let selection = py
-        .detach(|| on_local_pool(|| select(demos, None, &config, &|_| {})))?
+        .detach(|| on_local_pool(None, || select(demos, None, &config, &|_| {})))?
         .map_err(|e| DefenderError::new_err(format!("strategy=\"auto\": {e}")))?;
     let Some(best) = selection.best().cloned() else {
         return Err(DefenderError::new_err(format!(
@@ -136,7 +140,7 @@ pub(crate) fn select_strategies<'py>(
         ..SelectionConfig::default()
     };
     let selection = guard("select", || {
-        py.detach(|| on_local_pool(|| select(&demos, episodes.as_ref(), &config, &|_| {})))?
+        py.detach(|| on_local_pool(None, || select(&demos, episodes.as_ref(), &config, &|_| {})))?
             .map_err(defender_err)
     })?;
     if as_numpy { numpy_rows(py, &selection) } else { dict_rows(py, &selection) }
