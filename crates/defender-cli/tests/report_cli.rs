@@ -66,8 +66,13 @@ fn latex_and_csv_to_files_and_plots() {
     );
     assert!(!root.join("out/tables.tex.tmp").exists());
     let stderr = text(&out.stderr);
-    assert!(stderr.contains("wrote 12 plot files to"), "{stderr}");
-    for name in ["Hopper-v5_sac_return.png", "Hopper-v5_td3_crash.svg", "Hopper-v5_td3_eval.png"] {
+    assert!(stderr.contains("wrote 16 plot files to"), "{stderr}");
+    for name in [
+        "Hopper-v5_sac_return.png",
+        "Hopper-v5_td3_crash.svg",
+        "Hopper-v5_td3_eval.png",
+        "Hopper-v5_sac_tradeoff.png",
+    ] {
         let len = std::fs::metadata(root.join("plots").join(name)).unwrap().len();
         assert!(len > 1000, "{name}: {len} bytes");
     }

@@ -9,6 +9,7 @@ mod render;
 mod run;
 mod stats;
 mod table;
+mod tradeoff;
 
 pub use discover::{RunSet, SkippedRun, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};

@@ -1,6 +1,7 @@
 //! Learning curves as PNG and SVG, drawn with `plotters` and an embedded font (no system font
 //! library): per task, algorithm and budget, the bare algorithm against each DEFENDER strategy,
-//! mean over seeds with a shaded min-max band.
+//! mean over seeds with a shaded min-max band; beside them, the trade-off of the final results
+//! (`crate::tradeoff`). Both are [`Figure`]s, written by [`write_figure`].
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -15,11 +16,12 @@ use defender_rl::{Budget, Outcome};
 
 use crate::run::{DefenderSettings, Run};
 use crate::stats::{interpolate, linspace, rolling_mean};
+use crate::tradeoff;
 
 /// DejaVu Sans (Bitstream Vera license, see assets/DejaVuSans-LICENSE.txt), so that text is drawn
 /// the same everywhere without fontconfig or freetype.
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-const FONT_NAME: &str = "sans-serif";
+pub(crate) const FONT_NAME: &str = "sans-serif";
 
 /// Options of [`draw_plots`].
 #[derive(Debug, Clone, PartialEq)]
@@ -98,7 +100,9 @@ struct Chart {
 
 /// Draws the learning curves of `runs` into `dir` (created if needed): for each task x algorithm
 /// (x budget, when a task and algorithm were run with several), `{env}_{algo}_return`,
-/// `{env}_{algo}_crash` and `{env}_{algo}_eval`, each as `.png` and `.svg`.
+/// `{env}_{algo}_crash` and `{env}_{algo}_eval`, and the final results' trade-off
+/// `{env}_{algo}_tradeoff` (% Crash against Acc Reward, one point per configuration), each as
+/// `.png` and `.svg`.
 ///
 /// Each seed's curve is interpolated linearly onto a grid over the steps all seeds reached
 /// (from the latest first point to the earliest last point), so the mean never mixes a
@@ -151,6 +155,10 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             text.push_str(&format!(" [{seeds} seed{}]", if seeds == 1 { "" } else { "s" }));
             text
         };
+        // Colour i of the curves is the same strategy's colour in the trade-off.
+        let color_of = |i: usize, filter: Option<&DefenderSettings>| {
+            if filter.is_none() { 0 } else { i + usize::from(!by_filter.contains_key(&None)) }
+        };
         for kind in PlotKind::ALL {
             let mut bands = Vec::new();
             for (i, (filter, seeds)) in by_filter.iter().enumerate() {
@@ -164,12 +172,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 match band(&curves, grid) {
                     // BTreeMap order puts the bare run (None) first: colour 0.
                     Some((xs, mean, lo, hi)) => {
-                        let color = if filter.is_none() {
-                            0
-                        } else {
-                            i + usize::from(!by_filter.contains_key(&None))
-                        };
-                        bands.push(Band { label, color, xs, mean, lo, hi });
+                        bands.push(Band { label, color: color_of(i, *filter), xs, mean, lo, hi });
                     }
                     None => plots.notes.push(format!(
                         "{stem}_{}: {label}: the seeds' {} share no step range; not drawn",
@@ -189,13 +192,25 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 bands,
             };
             let base = dir.join(format!("{stem}_{}", kind.suffix()));
-            plots.files.extend(write_chart(&chart, &base, options)?);
+            plots.files.extend(write_figure(&chart, &base, options)?);
         }
+        let points = by_filter
+            .iter()
+            .enumerate()
+            .map(|(i, (filter, seeds))| {
+                tradeoff::Point::of(label(*filter, seeds.len()), color_of(i, *filter), seeds)
+            })
+            .collect();
+        let figure = tradeoff::Tradeoff::new(
+            format!("{env}, {}, {budget}: final results", algo.to_uppercase()),
+            points,
+        );
+        plots.files.extend(write_figure(&figure, &dir.join(format!("{stem}_tradeoff")), options)?);
     }
     Ok(plots)
 }
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The font is compiled in and known good; a failure would only mean no text, not a panic.
@@ -203,7 +218,7 @@ fn register_font() {
     });
 }
 
-fn file_safe(text: &str) -> String {
+pub(crate) fn file_safe(text: &str) -> String {
     text.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' }).collect()
 }
 
@@ -315,12 +330,29 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-fn color(index: usize) -> RGBColor {
+pub(crate) fn color(index: usize) -> RGBColor {
     if index == 0 { BLACK } else { PALETTE[(index - 1) % PALETTE.len()] }
 }
 
-/// Draws `chart` as `base.png` and `base.svg`.
-fn write_chart(chart: &Chart, base: &Path, options: &PlotOptions) -> Result<Vec<PathBuf>> {
+/// Something drawn the same way on any `plotters` backend (PNG pixels, SVG text).
+pub(crate) trait Figure {
+    /// Draws the figure on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String>
+    where
+        DB::ErrorType: 'static;
+}
+
+impl Figure for Chart {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String>
+    where
+        DB::ErrorType: 'static,
+    {
+        draw(root, self)
+    }
+}
+
+/// Draws `figure` as `base.png` and `base.svg`, each written atomically.
+pub(crate) fn write_figure(figure: &impl Figure, base: &Path, options: &PlotOptions) -> Result<Vec<PathBuf>> {
     let (w, h) = (options.width, options.height);
     let png_path = base.with_extension("png");
     let plot_err = |path: &Path| {
@@ -332,7 +364,7 @@ fn write_chart(chart: &Chart, base: &Path, options: &PlotOptions) -> Result<Vec<
         let backend =
             BitMapBackend::<plotters::backend::RGBPixel>::with_buffer_and_format(&mut pixels, (w, h))
                 .map_err(|e| plot_err(&png_path)(e.to_string()))?;
-        draw(backend.into_drawing_area(), chart).map_err(plot_err(&png_path))?;
+        figure.draw(backend.into_drawing_area()).map_err(plot_err(&png_path))?;
     }
     let mut png_bytes = Vec::new();
     {
@@ -349,7 +381,7 @@ fn write_chart(chart: &Chart, base: &Path, options: &PlotOptions) -> Result<Vec<
     let mut svg = String::new();
     {
         let backend = SVGBackend::with_string(&mut svg, (w, h));
-        draw(backend.into_drawing_area(), chart).map_err(plot_err(&svg_path))?;
+        figure.draw(backend.into_drawing_area()).map_err(plot_err(&svg_path))?;
     }
     write_atomic(&svg_path, svg.as_bytes())?;
     Ok(vec![png_path, svg_path])
@@ -370,7 +402,7 @@ fn steps_label(x: f64) -> String {
     format!("{text}{unit}")
 }
 
-fn range(lo: f64, hi: f64, pad_below: f64, pad_above: f64) -> (f64, f64) {
+pub(crate) fn range(lo: f64, hi: f64, pad_below: f64, pad_above: f64) -> (f64, f64) {
     let span = hi - lo;
     if span > 0.0 {
         (lo - span * pad_below, hi + span * pad_above)

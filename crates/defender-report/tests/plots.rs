@@ -19,7 +19,7 @@ fn plots_are_written_as_png_and_svg() {
     names.sort();
     let mut expected = Vec::new();
     for algo in ["sac", "td3"] {
-        for kind in ["crash", "eval", "return"] {
+        for kind in ["crash", "eval", "return", "tradeoff"] {
             for ext in ["png", "svg"] {
                 expected.push(format!("Hopper-v5_{algo}_{kind}.{ext}"));
             }
@@ -43,6 +43,9 @@ fn plots_are_written_as_png_and_svg() {
         } else {
             let text = String::from_utf8(bytes).unwrap();
             assert!(text.contains("<svg") && text.trim_end().ends_with("</svg>"), "{}", path.display());
+            if path.to_string_lossy().contains("tradeoff") {
+                continue; // below
+            }
             // Title, axis label and legend entries are there as text.
             assert!(text.contains("environment steps"));
             assert!(text.contains("(bare) [3 seeds]"), "{}", path.display());
@@ -54,6 +57,29 @@ fn plots_are_written_as_png_and_svg() {
     let svg = std::fs::read_to_string(out.join("Hopper-v5_sac_crash.svg")).unwrap();
     assert!(svg.contains("Hopper-v5, SAC, 400 steps: cumulative crash rate"));
     assert!(svg.contains("crashed episodes so far (%)"));
+
+    // The trade-off: one point per configuration, in the curves' colours, and the target corner
+    // (shaded) when there is a bare run with a positive Acc Reward.
+    let svg = std::fs::read_to_string(out.join("Hopper-v5_sac_tradeoff.svg")).unwrap();
+    assert!(svg.contains("Hopper-v5, SAC, 400 steps: final results"), "{svg}");
+    assert!(svg.contains("% Crash") && svg.contains("Acc Reward"));
+    for label in ["(bare) [3 seeds]", "MeanDemoW5/MeanDemoW10 [3 seeds]", "MinDemoW5/MinDemoW10 [3 seeds]"] {
+        assert!(svg.contains(label), "{label}");
+    }
+    let crash = std::fs::read_to_string(out.join("Hopper-v5_sac_crash.svg")).unwrap();
+    let colour_of = |svg: &str, label: &str| {
+        // plotters writes each legend entry's marker just before its text.
+        let at = svg.find(label).unwrap();
+        let before = &svg[..at];
+        let fill = before.rfind("stroke=\"#").or_else(|| before.rfind("fill=\"#")).unwrap();
+        before[fill..fill + 16].split('#').nth(1).unwrap()[..6].to_string()
+    };
+    assert_eq!(
+        colour_of(&svg, "MinDemoW5/MinDemoW10 [3 seeds]"),
+        colour_of(&crash, "MinDemoW5/MinDemoW10 [3 seeds]"),
+        "a strategy has one colour in every figure"
+    );
+    assert!(svg.contains("at least") || svg.contains("90% of its Acc Reward"), "the target corner's legend");
 }
 
 #[test]
@@ -63,7 +89,7 @@ fn a_single_episode_run_is_drawn_with_markers() {
     RunSpec::new("sac", 0, A).outcomes(1, 1, 0).write(root.path());
     let set = load_runs(&[root.path()]).unwrap();
     let plots = draw_plots(&set.runs, root.path().join("p"), &PlotOptions::default()).unwrap();
-    assert_eq!(plots.files.len(), 6);
+    assert_eq!(plots.files.len(), 8);
     assert!(plots.notes.is_empty());
     let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_eval.svg")).unwrap();
     assert!(svg.contains("<circle"), "{svg}");
