@@ -302,6 +302,57 @@ fn collect_train_ablate_report() {
     assert!(out.contains("2 strategies ranked"), "{out}");
     let table = ok(&["report", root.join("runs").to_str().unwrap()]);
     assert!(table.contains("MeanBothW5"), "{table}");
+
+    // Tasks ablated apart and ranked together with --combine give the joint ablation's file.
+    let strategies = "MeanBothW5/MeanBothW5,MinBoth/MinBoth";
+    let (rec, scores_s) = (recorded.to_str().unwrap(), scores.to_str().unwrap());
+    let second = root.join("second.csv");
+    ok(&[
+        "ablate",
+        "--demos",
+        demos_s,
+        "--episodes",
+        demos_s,
+        "--strategies",
+        strategies,
+        "--out",
+        second.to_str().unwrap(),
+    ]);
+    let joint = root.join("joint.csv");
+    #[rustfmt::skip]
+    ok(&["ablate", "--demos", demos_s, "--episodes", rec, "--demos", demos_s, "--episodes", demos_s,
+         "--strategies", strategies, "--out", joint.to_str().unwrap()]);
+    let combined = root.join("combined.csv");
+    let out =
+        ok(&["ablate", "--combine", scores_s, second.to_str().unwrap(), "--out", combined.to_str().unwrap()]);
+    assert!(out.contains("2 strategies ranked over 2 tasks"), "{out}");
+    let read = |p: &Path| std::fs::read_to_string(p).unwrap();
+    assert_eq!(read(&combined), read(&joint));
+    // Rankings of different strategies do not combine; the message says what must match.
+    let other = root.join("other.csv");
+    ok(&[
+        "ablate",
+        "--demos",
+        demos_s,
+        "--episodes",
+        rec,
+        "--strategies",
+        "MinBoth/MinBoth",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    let refused = defender(&[
+        "ablate",
+        "--combine",
+        scores_s,
+        other.to_str().unwrap(),
+        "--out",
+        combined.to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    let message = String::from_utf8_lossy(&refused.stderr);
+    assert!(message.contains("the same strategies in the same mode"), "{message}");
+    assert!(!defender(&["ablate", "--combine", scores_s, "--out", "x.csv"]).status.success(), "one file");
 }
 
 /// `defender train` trains the dynamics model on its own thread when the networks have two

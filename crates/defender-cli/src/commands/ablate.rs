@@ -18,17 +18,24 @@ use crate::text_table::{Column, TextTable};
   defender ablate --demos a.npz --episodes a-ep.npz --demos b.npz --episodes b-ep.npz --out scores.csv
   defender ablate ... --strategies MeanDemoW5/MeanDemoW10,MinBoth/MinTrajW10
   defender ablate ... --strategies all --no-equal     (skip the Equal window: it costs O(n^2) per step)
+  defender ablate --combine hopper.csv walker.csv --out both.csv   (rank tasks ablated apart)
 
-Several --demos/--episodes pairs (one per task) rank the strategies by the mean score over tasks.
+Several --demos/--episodes pairs (one per task) rank the strategies by the mean score over tasks;
+--combine ranks the same way from rankings already written (one CSV per task, the same strategies
+and mode), so tasks can be ablated apart (one at a time, on other machines) and ranked together.
 score = mean episode-length ratio x safe-episode rate (SPEC section 7); the CSV has one row per
 strategy (SPEC section 9) and the top 10 are printed.")]
 pub struct AblateArgs {
     /// Demonstration set of a task (repeat once per task, paired in order with --episodes).
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "combine")]
     pub demos: Vec<PathBuf>,
     /// Recorded episode set of the same task (e.g. from `defender train --record-episodes`).
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "combine")]
     pub episodes: Vec<PathBuf>,
+    /// Rank by the mean over these per-task rankings (CSVs this command wrote) instead of
+    /// replaying episodes.
+    #[arg(long, num_args = 2.., conflicts_with_all = ["demos", "episodes", "strategies", "no_equal", "num_demos"])]
+    pub combine: Vec<PathBuf>,
     /// Trajectory elements: states, or state-action pairs.
     #[arg(long, default_value = "state", value_parser = ["state", "state-action"])]
     pub mode: String,
@@ -57,6 +64,9 @@ pub fn run(args: AblateArgs) -> Result<()> {
             args.demos.len(),
             args.episodes.len()
         );
+    }
+    if !args.combine.is_empty() {
+        return combine(&args);
     }
     let mode: Mode = args.mode.parse()?;
     // The ablation can take minutes to hours: refuse an unwritable --out before it starts.
@@ -96,6 +106,25 @@ pub fn run(args: AblateArgs) -> Result<()> {
     defender::write_csv(&args.out, &rows)?;
     print_top(&rows, args.top);
     println!("{} strategies ranked -> {}", rows.len(), args.out.display());
+    Ok(())
+}
+
+/// `--combine`: the mean over per-task rankings, as the ablation of several tasks ranks them.
+fn combine(args: &AblateArgs) -> Result<()> {
+    let mut per_task = Vec::new();
+    for path in &args.combine {
+        let rows = defender::read_csv(path).with_context(|| format!("--combine {}", path.display()))?;
+        if rows.is_empty() {
+            bail!("--combine {}: no strategy rows", path.display());
+        }
+        per_task.push(rows);
+    }
+    let rows = defender::rank_tasks(&per_task).context(
+        "--combine: the rankings must score the same strategies in the same mode (one CSV per task)",
+    )?;
+    defender::write_csv(&args.out, &rows)?;
+    print_top(&rows, args.top);
+    println!("{} strategies ranked over {} tasks -> {}", rows.len(), per_task.len(), args.out.display());
     Ok(())
 }
 
