@@ -75,6 +75,13 @@ fn select_ranks_every_strategy_and_prints_the_top() {
     let again = dir.path().join("again.csv");
     ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--out", s(&again)]);
     assert_eq!(text, std::fs::read_to_string(&again).unwrap());
+    // z-scored features are another cost: another ranking, of the same strategies.
+    let zscore = dir.path().join("zscore.csv");
+    #[rustfmt::skip]
+    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--scaling", "zscore", "--out", s(&zscore)]);
+    let z = std::fs::read_to_string(&zscore).unwrap();
+    assert_eq!(z.lines().count(), 442);
+    assert_ne!(z, text, "z-scoring changed no cost");
     // --help explains the criterion.
     let help = String::from_utf8(ok(&["select", "--help"]).stdout).unwrap();
     for word in ["Leave-one-out", "false_alarm_rate", "crash_prevention_rate", "demo_score", "--episodes"] {
@@ -108,6 +115,13 @@ fn select_refuses_bad_input_clearly() {
         &["select", "--demos", s(&demos), "--max-false-alarm", "nan", "--out", s(&csv)],
         &["max_false_alarm must be a rate in [0, 1], got NaN"],
     );
+    // A usage error (clap's exit code 2) that lists the values.
+    let usage = bin()
+        .args(["select", "--demos", s(&demos), "--scaling", "minmax", "--out", s(&csv)])
+        .output()
+        .unwrap();
+    assert_eq!(usage.status.code(), Some(2));
+    assert!(text(&usage).contains("invalid value 'minmax'") && text(&usage).contains("none, zscore"));
     assert!(!csv.exists());
 }
 

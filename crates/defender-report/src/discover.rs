@@ -107,7 +107,15 @@ pub fn load_runs<P: AsRef<Path>>(paths: &[P]) -> Result<RunSet> {
             None => format!("{} {} {} bare seed {}", c.env, c.algo, c.budget, c.seed),
             Some(f) => format!(
                 "{} {} {} {} {} demos {:?} seed {}",
-                c.env, c.algo, c.budget, f.strategy, f.mode, f.num_demos, c.seed
+                // The name, not the bare strategy: an automatic choice or z-scored DTW of the
+                // same strategy is another configuration, not a second copy of this run.
+                c.env,
+                c.algo,
+                c.budget,
+                f.name(),
+                f.mode,
+                f.num_demos,
+                c.seed
             ),
         };
         if let Some(first) = seen.get(&what) {

@@ -52,18 +52,32 @@ pub struct DefenderSettings {
     /// The strategy was chosen by `--strategy auto` (`config.toml` has `[defender.selection]`):
     /// such runs form rows of their own, labelled `auto: SAFE/UNSAFE`.
     pub auto: bool,
+    /// DTW on z-scored features (`[defender.cost] scaling = "zscore"`) rather than SPEC section
+    /// 2's plain DTW: rows of their own, labelled `z-score`.
+    pub zscore: bool,
 }
 
 impl DefenderSettings {
-    /// The strategy as a table or plot names it: `SAFE/UNSAFE`, or `auto: SAFE/UNSAFE`.
-    pub fn name(&self) -> String {
-        if self.auto { format!("auto: {}", self.strategy) } else { self.strategy.clone() }
+    /// What sets these settings apart from a fixed strategy on plain DTW, as a label prefix:
+    /// `auto: `, `z-score: `, `auto, z-score: ` or nothing.
+    fn prefix(&self) -> &'static str {
+        match (self.auto, self.zscore) {
+            (false, false) => "",
+            (true, false) => "auto: ",
+            (false, true) => "z-score: ",
+            (true, true) => "auto, z-score: ",
+        }
     }
 
-    /// The safe group's column of a table: [`DefenderSettings::safe`], marked `auto: ` when
-    /// chosen automatically.
+    /// The strategy as a table or plot names it: `SAFE/UNSAFE`, or `auto: SAFE/UNSAFE` (see
+    /// [`DefenderSettings::prefix`]).
+    pub fn name(&self) -> String {
+        format!("{}{}", self.prefix(), self.strategy)
+    }
+
+    /// The safe group's column of a table: [`DefenderSettings::safe`], with the same prefix.
     pub fn safe_cell(&self) -> String {
-        if self.auto { format!("auto: {}", self.safe()) } else { self.safe().to_string() }
+        format!("{}{}", self.prefix(), self.safe())
     }
 
     /// The strategy of the safe group (before the `/`).
@@ -471,6 +485,14 @@ struct RawDefender {
     mode: String,
     num_demos: Option<u64>,
     selection: Option<toml::Table>,
+    #[serde(default)]
+    cost: RawCost,
+}
+
+#[derive(Deserialize, Default)]
+struct RawCost {
+    #[serde(default)]
+    scaling: Option<String>,
 }
 
 fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
@@ -503,6 +525,7 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
                 mode,
                 num_demos: d.num_demos,
                 auto: d.selection.is_some(),
+                zscore: d.cost.scaling.as_deref() == Some("zscore"),
             })
         }
     };

@@ -65,7 +65,7 @@ pub struct Table {
     pub notes: Vec<String>,
 }
 
-type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>, bool)>);
+type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>, bool, bool)>);
 
 impl Table {
     /// Aggregates `runs` over seeds.
@@ -73,7 +73,8 @@ impl Table {
         let mut groups: BTreeMap<GroupKey, Vec<&Run>> = BTreeMap::new();
         for run in runs {
             let c = &run.config;
-            let filter = c.filter.as_ref().map(|f| (f.mode, f.strategy.clone(), f.num_demos, f.auto));
+            let filter =
+                c.filter.as_ref().map(|f| (f.mode, f.strategy.clone(), f.num_demos, f.auto, f.zscore));
             groups.entry((c.env.clone(), c.algo.clone(), c.budget, filter)).or_default().push(run);
         }
         // Wall-clock time of each bare run, by (task, algorithm, budget, seed).

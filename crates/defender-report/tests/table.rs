@@ -302,3 +302,25 @@ fn runs_with_different_numbers_of_demonstrations_are_separate_rows() {
     assert_eq!(rows[2][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "50", "50 ± 0.0"]);
     assert!(render(&table, Format::Latex).contains("Safe & Unsafe & Demos & Acc Reward"));
 }
+
+/// Runs on z-scored DTW (`[defender.cost] scaling = "zscore"`) are a configuration of their own:
+/// a row apart from the same strategy on plain DTW, labelled `z-score: `.
+#[test]
+fn zscore_runs_form_rows_of_their_own() {
+    let root = tempfile::tempdir().unwrap();
+    RunSpec::new("sac", 0, A).outcomes(4, 2, 1).write(&root.path().join("plain"));
+    let dir = RunSpec::new("sac", 0, A).outcomes(4, 0, 3).write(&root.path().join("zscore"));
+    let config = dir.join("config.toml");
+    let text = std::fs::read_to_string(&config).unwrap();
+    std::fs::write(&config, format!("{text}\n[defender.cost]\nscaling = \"zscore\"\n")).unwrap();
+    let table = table_of(root.path());
+    let rows: Vec<&Row> = table.rows.iter().filter(|r| r.filter.is_some()).collect();
+    assert_eq!(rows.len(), 2, "one row per DTW");
+    let labels: Vec<String> = rows.iter().map(|r| r.filter.as_ref().unwrap().name()).collect();
+    assert!(labels.contains(&A.unwrap().0.to_string()), "{labels:?}");
+    assert!(labels.contains(&format!("z-score: {}", A.unwrap().0)), "{labels:?}");
+    let zscore = rows.iter().find(|r| r.filter.as_ref().unwrap().zscore).unwrap();
+    assert!(close(&zscore.crash_pct, 0.0, 0.0), "{:?}", zscore.crash_pct);
+    let markdown = render(&table, Format::Markdown);
+    assert!(markdown.contains("z-score: "), "{markdown}");
+}

@@ -67,6 +67,10 @@ pub struct SelectArgs {
     /// demonstrations are not chosen.
     #[arg(long, default_value_t = 0.1)]
     pub max_false_alarm: f64,
+    /// Feature scaling before DTW, as a run's `[defender.cost] scaling`: `none` (SPEC section 2's
+    /// plain DTW) or `zscore` (per feature, fitted on the demonstrations).
+    #[arg(long, default_value = "none", value_parser = ["none", "zscore"])]
+    pub scaling: String,
     /// Rows to print.
     #[arg(long, default_value_t = 10)]
     pub top: usize,
@@ -89,7 +93,13 @@ pub fn run(args: SelectArgs) -> Result<()> {
         },
         min_lead: args.min_lead,
         max_false_alarm: args.max_false_alarm,
-        cost: Default::default(),
+        cost: defender::CostOptions {
+            scaling: if args.scaling == "zscore" {
+                defender::Scaling::Zscore
+            } else {
+                defender::Scaling::None
+            },
+        },
     };
     let demos = EpisodeSet::load(&args.demos)?;
     let episodes = args.episodes.as_ref().map(EpisodeSet::load).transpose()?;
