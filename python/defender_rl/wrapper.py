@@ -77,6 +77,12 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             result, while Python (e.g. PyTorch) works.
         seed: seeds the dynamics model's weights and sampling (``ChaCha8Rng::seed_from_u64``);
             random when None.
+        scaling: ``"none"`` (SPEC section 2's plain DTW on the raw observations) or
+            ``"zscore"``: every feature is standardised with the demonstrations' mean and
+            standard deviation before DTW, as ``[defender.cost] scaling = "zscore"`` in a run's
+            configuration; ``strategy="auto"`` then chooses on z-scored features too. On
+            Hopper-v5 and Walker2d-v5 it separates safe from unsafe demonstrations far better
+            (docs/decisions.md).
 
     The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
     ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
@@ -93,12 +99,13 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         r_task: float | None = None,
         dynamics: Mapping[str, Any] | None = None,
         seed: int | None = None,
+        scaling: str = "none",
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
-            dynamics=dynamics, seed=seed,
+            dynamics=dynamics, seed=seed, scaling=scaling,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
         obs_space = _check_box(env.observation_space, "observation space")
@@ -109,6 +116,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise TypeError(f"strategy must be a string such as 'MeanDemoW5/MeanDemoW10', got {strategy!r}")
         if not isinstance(mode, str):
             raise TypeError(f"mode must be 'state' or 'state-action', got {mode!r}")
+        if not isinstance(scaling, str):
+            raise TypeError(f"scaling must be 'none' or 'zscore', got {scaling!r}")
         if num_demos is not None and (not isinstance(num_demos, (int, np.integer)) or num_demos < 1):
             raise DefenderError(f"num_demos must be a positive integer or None, got {num_demos!r}")
         if r_task is not None:
@@ -141,6 +150,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             r_task,
             dynamics_json,
             None if seed is None else int(seed),
+            scaling,
         )
 
     # -- Gymnasium API ------------------------------------------------------------------------

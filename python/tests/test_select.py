@@ -27,7 +27,7 @@ SIZES = [10, pytest.param(None, marks=pytest.mark.skipif(not FULL, reason="DEFEN
 SCORES = ["false_alarm_rate", "crash_prevention_rate", "safe_allowed", "unsafe_allowed", "mean_lead", "score"]
 
 
-def rust_select(demos, num_demos, tmp_path):
+def rust_select(demos, num_demos, tmp_path, *extra):
     """`defender select --no-equal` (what `--strategy auto` runs): its selection.csv rows."""
     cargo = shutil.which("cargo")
     assert cargo, "cargo is needed to build the defender binary the test compares with"
@@ -37,6 +37,7 @@ def rust_select(demos, num_demos, tmp_path):
     cmd = [os.path.join(target, "release", "defender"), "select", "--demos", str(demos), "--no-equal", "--out", str(out)]
     if num_demos is not None:
         cmd += ["--num-demos", str(num_demos)]
+    cmd += list(extra)
     subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True)
     with open(out, newline="") as f:
         return list(csv.DictReader(f))
@@ -73,6 +74,20 @@ def test_auto_picks_the_strategy_of_the_rust_selection(task, num_demos, tmp_path
     assert [r["strategy"] for r in ranked] == [r["strategy"] for r in rows]
     assert [r["eligible"] for r in ranked] == [r["eligible"] == "true" for r in rows]
     assert all(r["score"] == float(c["score"]) for r, c in zip(ranked, rows))
+
+
+def test_zscore_scaling_is_the_command_lines(tmp_path):
+    """scaling="zscore" (select and the wrapper's auto) is `defender select --scaling zscore`, and
+    it is another cost than plain DTW: another ranking."""
+    demos = ROOT / "data" / "demos" / "Hopper-v5.npz"
+    rows = rust_select(demos, 10, tmp_path, "--scaling", "zscore")
+    ranked = defender_rl.select(demos, num_demos=10, equal=False, scaling="zscore")
+    assert [(r["strategy"], r["score"]) for r in ranked] == [(c["strategy"], float(c["score"])) for c in rows]
+    plain = defender_rl.select(demos, num_demos=10, equal=False)
+    assert [r["score"] for r in plain] != [r["score"] for r in ranked]
+    env = DefenderWrapper(gym.make("Hopper-v5"), demos, "auto", num_demos=10, seed=0, scaling="zscore")
+    assert env.strategy == rows[0]["strategy"]
+    env.close()
 
 
 def test_select_options_and_numpy_output():

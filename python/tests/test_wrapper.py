@@ -160,6 +160,10 @@ def test_unknown_strategy_and_mode(drift_set):
         DefenderWrapper(DriftEnv(), drift_set, "MeanDemoW5")
     with pytest.raises(DefenderError, match="mode"):
         DefenderWrapper(DriftEnv(), drift_set, mode="actions")
+    with pytest.raises(DefenderError, match="scaling: unknown 'minmax'"):
+        DefenderWrapper(DriftEnv(), drift_set, scaling="minmax")
+    with pytest.raises(DefenderError, match="scaling"):
+        defender_rl.select(drift_set, scaling="z")
     with pytest.raises(DefenderError, match="dynamics: unknown field `hiden`"):
         DefenderWrapper(DriftEnv(), drift_set, dynamics={"hiden": [8]})
     with pytest.raises(DefenderError, match="r_task"):

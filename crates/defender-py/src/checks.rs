@@ -4,7 +4,7 @@
 
 use std::str::FromStr;
 
-use defender::{Mode, Strategy};
+use defender::{CostOptions, Mode, Scaling, Strategy};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -47,6 +47,21 @@ pub(crate) fn strategy_row<'py>(
 
 pub(crate) fn parse_mode(s: &str) -> PyResult<Mode> {
     parse_name(s, "mode")
+}
+
+/// The alignment cost's options from `scaling`: `"none"` (SPEC section 2's plain DTW) or
+/// `"zscore"` (per feature, fitted on the demonstrations), as a run's `[defender.cost] scaling`.
+pub(crate) fn parse_cost(scaling: &str) -> PyResult<CostOptions> {
+    let scaling = match scaling {
+        "none" => Scaling::None,
+        "zscore" => Scaling::Zscore,
+        other => {
+            return Err(DefenderError::new_err(format!(
+                "scaling: unknown '{other}'; expected 'none' (plain DTW) or 'zscore'"
+            )));
+        }
+    };
+    Ok(CostOptions { scaling })
 }
 
 /// `d[key]`, or an error naming `what` and the missing key.

@@ -18,7 +18,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::arrays::read_vec_f64;
-use crate::checks::{parse_mode, parse_name};
+use crate::checks::{parse_cost, parse_mode, parse_name};
 use crate::episodes::episode_set_arg;
 use crate::select::{AutoChoice, choose_auto};
 use crate::{DefenderError, defender_err, env_err, guard};
@@ -215,7 +215,7 @@ impl Core {
     /// `env`: the Python environment; `obs_low`/`obs_high`/`act_low`/`act_high`: its Box bounds;
     /// `dynamics`: a JSON object of `DynamicsConfig` fields.
     #[new]
-    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed))]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling))]
     #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
     fn new(
         py: Python<'_>,
@@ -233,6 +233,7 @@ impl Core {
         r_task: Option<f64>,
         dynamics_json: Option<String>,
         seed: Option<u64>,
+        scaling: &str,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -240,6 +241,7 @@ impl Core {
             let demos = episode_set_arg(demos, "demos")?;
             let choice: StrategyChoice = parse_name(strategy, "strategy")?;
             let mode = parse_mode(mode)?;
+            let cost = parse_cost(scaling)?;
             let dynamics: DynamicsConfig = match dynamics_json {
                 Some(text) => serde_json::from_str(&text)
                     .map_err(|e| DefenderError::new_err(format!("dynamics: {e}")))?,
@@ -270,12 +272,11 @@ impl Core {
             let (strategy, auto) = match choice {
                 StrategyChoice::Fixed(s) => (s, None),
                 StrategyChoice::Auto => {
-                    let auto = choose_auto(py, &demos, mode, num_demos)?;
+                    let auto = choose_auto(py, &demos, mode, num_demos, cost)?;
                     (auto.best.strategy, Some(auto))
                 }
             };
-            let config =
-                DefenderConfig { strategy, mode, num_demos, r_task, dynamics, ..DefenderConfig::default() };
+            let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, dynamics };
             let mut rng = match seed {
                 Some(s) => ChaCha8Rng::seed_from_u64(s),
                 None => ChaCha8Rng::from_rng(&mut rand::rng()),

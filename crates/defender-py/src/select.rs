@@ -5,11 +5,11 @@
 use std::time::Instant;
 
 use defender::selection::{Selection, SelectionConfig, StrategyScore, select};
-use defender::{EpisodeSet, Mode};
+use defender::{CostOptions, EpisodeSet, Mode};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::checks::{parse_mode, parse_strategies, strategy_row};
+use crate::checks::{parse_cost, parse_mode, parse_strategies, strategy_row};
 use crate::episodes::episode_set_arg;
 use crate::{DefenderError, defender_err, guard};
 
@@ -79,8 +79,9 @@ pub(crate) fn choose_auto(
     demos: &EpisodeSet,
     mode: Mode,
     num_demos: Option<usize>,
+    cost: CostOptions,
 ) -> PyResult<AutoChoice> {
-    let config = SelectionConfig { mode, num_demos, equal: false, ..SelectionConfig::default() };
+    let config = SelectionConfig { mode, num_demos, equal: false, cost, ..SelectionConfig::default() };
     let start = Instant::now();
     let selection = py
         .detach(|| on_local_pool(None, || select(demos, None, &config, &|_| {})))?
@@ -106,13 +107,13 @@ pub(crate) fn choose_auto(
 }
 
 /// `select(demos, episodes=None, mode="state", num_demos=None, equal=True, strategies=None,
-/// min_lead=1, max_false_alarm=0.1, as_numpy=False)`: ranks strategies for one task from its
+/// min_lead=1, max_false_alarm=0.1, as_numpy=False, scaling="none")`: ranks strategies for one task from its
 /// demonstrations by leave-one-out, times the ablation score on recorded `episodes` when given,
 /// as `defender select` does (same options, same rows as its `selection.csv`). The first row is
 /// the choice when its `eligible` is true. Returns a list of dicts, or with `as_numpy` a dict of
 /// arrays.
 #[pyfunction(name = "select")]
-#[pyo3(signature = (demos, episodes = None, mode = "state", num_demos = None, equal = true, strategies = None, min_lead = 1, max_false_alarm = 0.1, as_numpy = false))]
+#[pyo3(signature = (demos, episodes = None, mode = "state", num_demos = None, equal = true, strategies = None, min_lead = 1, max_false_alarm = 0.1, as_numpy = false, scaling = "none"))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of one Python function, as `defender select`'s flags
 pub(crate) fn select_strategies<'py>(
     py: Python<'py>,
@@ -125,20 +126,14 @@ pub(crate) fn select_strategies<'py>(
     min_lead: usize,
     max_false_alarm: f64,
     as_numpy: bool,
+    scaling: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let mode = parse_mode(mode)?;
+    let cost = parse_cost(scaling)?;
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episodes.filter(|e| !e.is_none()).map(|e| episode_set_arg(e, "episodes")).transpose()?;
     let strategies = parse_strategies(strategies)?;
-    let config = SelectionConfig {
-        mode,
-        num_demos,
-        equal,
-        strategies,
-        min_lead,
-        max_false_alarm,
-        ..SelectionConfig::default()
-    };
+    let config = SelectionConfig { mode, num_demos, equal, strategies, min_lead, max_false_alarm, cost };
     let selection = guard("select", || {
         py.detach(|| on_local_pool(None, || select(&demos, episodes.as_ref(), &config, &|_| {})))?
             .map_err(defender_err)
