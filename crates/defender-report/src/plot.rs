@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::error::{ReportError, Result, io_err};
@@ -490,15 +491,30 @@ where
             plot.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(e)?;
         }
     }
+    finish(&mut plot, &root, SeriesLabelPosition::UpperLeft)
+}
+
+/// The chart type of every figure: f64 on both axes.
+pub(crate) type Plot<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Draws the legend at `position`, in the style all figures share, and presents `root`.
+pub(crate) fn finish<'a, DB: DrawingBackend + 'a>(
+    plot: &mut Plot<'a, DB>,
+    root: &DrawingArea<DB, Shift>,
+    position: SeriesLabelPosition,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
     plot.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(position)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK.mix(0.4))
         .label_font((FONT_NAME, 14))
         .draw()
         .map_err(e)?;
-    root.present().map_err(e)?;
-    Ok(())
+    root.present().map_err(e)
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::plot::{FONT_NAME, Figure, color, range};
+use crate::plot::{FONT_NAME, Figure, color, finish, range};
 use crate::run::Run;
 use crate::stats::Stat;
 
@@ -112,15 +112,7 @@ impl Figure for Tradeoff {
             let ring = Circle::new((p.crash_pct.mean, p.acc_reward.mean), 9, BLACK.stroke_width(3));
             plot.draw_series(std::iter::once(ring)).map_err(e)?;
         }
-        plot.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT_NAME, 14))
-            .draw()
-            .map_err(e)?;
-        root.present().map_err(e)?;
-        Ok(())
+        finish(&mut plot, &root, SeriesLabelPosition::UpperRight)
     }
 }
 
