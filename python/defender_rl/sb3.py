@@ -21,7 +21,7 @@ class DefenderCallback(BaseCallback):
     ``filtered_episodes`` (counts), ``episodes``, ``crash_rate_recent`` /
     ``filter_rate_recent`` (over the last ``window`` episodes), and ``filtered_step_rate``
     (fraction of steps filtered). With ``strategy="auto"``, the strategy chosen and its scores
-    are logged once when training starts (``defender/strategy``, ``defender/selection/*``)."""
+    are logged once when training starts (``defender/strategy``, ``defender/scaling``, ``defender/selection/*``)."""
 
     def __init__(self, window: int = 100, verbose: int = 0):
         super().__init__(verbose)
@@ -40,6 +40,7 @@ class DefenderCallback(BaseCallback):
         if chosen is None:
             return
         self.logger.record("defender/strategy", chosen["strategy"])
+        self.logger.record("defender/scaling", chosen["scaling"])
         for key in ("false_alarm_rate", "crash_prevention_rate", "safe_allowed", "mean_lead", "score"):
             self.logger.record(f"defender/selection/{key}", chosen[key])
 

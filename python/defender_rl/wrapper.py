@@ -61,9 +61,11 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``DemoW10``, ``BothW10``); see :func:`defender_rl.strategies`. Or ``"auto"``: chosen
             from ``demos`` (with ``mode`` and ``num_demos``) by the selection of
             ``defender train --strategy auto`` (leave-one-out over the demonstrations, without
-            the ``Equal`` window; :func:`defender_rl.select`), before the first step; the choice
-            and its scores are :attr:`strategy` and :attr:`strategy_selection`. It takes seconds
-            to a minute (about 26 s for Hopper-v5's shipped 50 + 50, on two cores) and each
+            the ``Equal`` window; :func:`defender_rl.select`), before the first step, under plain
+            and under z-scored DTW unless ``scaling`` is given; the choice and its scores are
+            :attr:`strategy` and :attr:`strategy_selection` (with the ``scaling`` chosen). It
+            takes seconds to a minute (about 26 s per scaling for Hopper-v5's shipped 50 + 50,
+            on two cores) and each
             wrapper chooses again: for several environments, choose once with
             :func:`defender_rl.select` and pass the strategy.
         mode: ``"state"`` or ``"state-action"``.
@@ -80,9 +82,10 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         scaling: ``"none"`` (SPEC section 2's plain DTW on the raw observations) or
             ``"zscore"``: every feature is standardised with the demonstrations' mean and
             standard deviation before DTW, as ``[defender.cost] scaling = "zscore"`` in a run's
-            configuration; ``strategy="auto"`` then chooses on z-scored features too. On
-            Hopper-v5 and Walker2d-v5 it separates safe from unsafe demonstrations far better
-            (docs/decisions.md).
+            configuration. ``None`` (the default): plain DTW for a given strategy, and for
+            ``strategy="auto"`` whichever of the two its selection ranks higher (z-scored on the
+            shipped Hopper-v5, Walker2d-v5 and InvertedDoublePendulum-v5 sets, where it
+            separates safe from unsafe demonstrations far better: docs/decisions.md).
 
     The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
     ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
@@ -99,7 +102,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         r_task: float | None = None,
         dynamics: Mapping[str, Any] | None = None,
         seed: int | None = None,
-        scaling: str = "none",
+        scaling: str | None = None,
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
@@ -116,8 +119,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise TypeError(f"strategy must be a string such as 'MeanDemoW5/MeanDemoW10', got {strategy!r}")
         if not isinstance(mode, str):
             raise TypeError(f"mode must be 'state' or 'state-action', got {mode!r}")
-        if not isinstance(scaling, str):
-            raise TypeError(f"scaling must be 'none' or 'zscore', got {scaling!r}")
+        if scaling is not None and not isinstance(scaling, str):
+            raise TypeError(f"scaling must be 'none', 'zscore' or None, got {scaling!r}")
         if num_demos is not None and (not isinstance(num_demos, (int, np.integer)) or num_demos < 1):
             raise DefenderError(f"num_demos must be a positive integer or None, got {num_demos!r}")
         if r_task is not None:

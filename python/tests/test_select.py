@@ -28,7 +28,8 @@ SCORES = ["false_alarm_rate", "crash_prevention_rate", "safe_allowed", "unsafe_a
 
 
 def rust_select(demos, num_demos, tmp_path, *extra):
-    """`defender select --no-equal` (what `--strategy auto` runs): its selection.csv rows."""
+    """`defender select --no-equal` (with `--scaling auto`, what `--strategy auto` runs): its
+    selection.csv rows."""
     cargo = shutil.which("cargo")
     assert cargo, "cargo is needed to build the defender binary the test compares with"
     subprocess.run([cargo, "build", "--release", "--quiet", "-p", "defender-cli"], cwd=ROOT, check=True)
@@ -47,16 +48,18 @@ def rust_select(demos, num_demos, tmp_path, *extra):
 @pytest.mark.parametrize("task", TASKS)
 def test_auto_picks_the_strategy_of_the_rust_selection(task, num_demos, tmp_path):
     demos = ROOT / "data" / "demos" / f"{task}.npz"
-    rows = rust_select(demos, num_demos, tmp_path)
+    rows = rust_select(demos, num_demos, tmp_path, "--scaling", "auto")
     best = rows[0]
     assert best["eligible"] == "true", f"{task}: no eligible strategy in defender select's ranking"
 
+    # No scaling given: auto compares plain and z-scored DTW.
     env = DefenderWrapper(gym.make(task), demos, "auto", num_demos=num_demos, seed=0)
     chosen = env.strategy_selection
     assert env.strategy == best["strategy"] == chosen["strategy"]
+    assert chosen["scaling"] == best["scaling"] and chosen["scalings"] == ["none", "zscore"]
     for key in SCORES:  # selection.csv writes Rust's shortest round-trip form: exact
         assert chosen[key] == float(best[key]), key
-    assert chosen["candidates"] == len(rows) == 441  # all strategies without Equal
+    assert chosen["candidates"] == len(rows) // 2 == 441  # all strategies without Equal, per scaling
     assert chosen["equal"] is False and chosen["chosen_by"] == "auto"
     assert chosen["min_lead"] == 1 and chosen["max_false_alarm"] == 0.1
     assert chosen["seconds"] > 0
@@ -70,8 +73,8 @@ def test_auto_picks_the_strategy_of_the_rust_selection(task, num_demos, tmp_path
     env.close()
 
     # defender_rl.select ranks as `defender select` does, row for row.
-    ranked = defender_rl.select(demos, num_demos=num_demos, equal=False)
-    assert [r["strategy"] for r in ranked] == [r["strategy"] for r in rows]
+    ranked = defender_rl.select(demos, num_demos=num_demos, equal=False, scaling="auto")
+    assert [(r["strategy"], r["scaling"]) for r in ranked] == [(r["strategy"], r["scaling"]) for r in rows]
     assert [r["eligible"] for r in ranked] == [r["eligible"] == "true" for r in rows]
     assert all(r["score"] == float(c["score"]) for r, c in zip(ranked, rows))
 
@@ -85,8 +88,11 @@ def test_zscore_scaling_is_the_command_lines(tmp_path):
     assert [(r["strategy"], r["score"]) for r in ranked] == [(c["strategy"], float(c["score"])) for c in rows]
     plain = defender_rl.select(demos, num_demos=10, equal=False)
     assert [r["score"] for r in plain] != [r["score"] for r in ranked]
+    assert {r["scaling"] for r in ranked} == {"zscore"} and {r["scaling"] for r in plain} == {"none"}
     env = DefenderWrapper(gym.make("Hopper-v5"), demos, "auto", num_demos=10, seed=0, scaling="zscore")
     assert env.strategy == rows[0]["strategy"]
+    # A given scaling is used as given: nothing else compared.
+    assert env.strategy_selection["scaling"] == "zscore" and env.strategy_selection["scalings"] == []
     env.close()
 
 

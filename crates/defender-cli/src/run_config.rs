@@ -79,7 +79,8 @@ impl RunConfig {
 
     /// This request as it applies to `saved`, a run already started: `strategy = "auto"` asks
     /// for the strategy the selection chose when that run began (its `config.toml` holds the
-    /// choice and `[defender.selection]`), so it takes that choice rather than choosing again.
+    /// choice and `[defender.selection]`), so it takes that choice rather than choosing again,
+    /// and the scaling chosen with it when the request leaves the scaling to `auto`.
     /// The selection is part of the run; making it again on a resume (or comparing `auto` with
     /// the chosen name when a sweep checks a complete run) would change or refuse the run.
     #[must_use]
@@ -90,6 +91,9 @@ impl RunConfig {
         {
             requested.strategy = saved.strategy;
             requested.selection.clone_from(&saved.selection);
+            if requested.cost.scaling.is_none() {
+                requested.cost.scaling = saved.cost.scaling;
+            }
         }
         self
     }
@@ -139,15 +143,39 @@ pub struct DefenderSection {
     /// configuration given with it) refuses a file whose content differs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub demos_sha256: Option<String>,
-    /// Options of the alignment cost (SPEC section 2; off by default).
+    /// Options of the alignment cost (SPEC section 2).
     #[serde(default)]
-    pub cost: defender::CostOptions,
+    pub cost: CostSection,
     /// The dynamics model (SPEC section 5).
     #[serde(default)]
     pub dynamics: defender::DynamicsConfig,
     /// How `strategy = "auto"` chose the strategy (`[defender.selection]`); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selection: Option<defender_report::StrategySelection>,
+}
+
+/// `[defender.cost]` as a configuration gives it. `scaling` left out is SPEC section 2's plain
+/// DTW for a given strategy, and for `strategy = "auto"` a choice between plain and z-scored DTW
+/// made with the strategy's (docs/decisions.md, "z-scored DTW"); a started run's `config.toml`
+/// always holds the scaling used.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CostSection {
+    /// `none` (plain DTW) or `zscore`; absent: see above.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scaling: Option<defender::Scaling>,
+}
+
+impl CostSection {
+    /// The method's cost options: an absent scaling is plain DTW.
+    pub fn options(self) -> defender::CostOptions {
+        defender::CostOptions { scaling: self.scaling.unwrap_or_default() }
+    }
+
+    /// The cost the configuration fixes, if it fixes one.
+    pub fn given(self) -> Option<defender::CostOptions> {
+        self.scaling.map(|scaling| defender::CostOptions { scaling })
+    }
 }
 
 impl DefenderSection {
@@ -173,7 +201,7 @@ impl DefenderSection {
             mode: self.mode,
             num_demos: self.num_demos,
             r_task: self.r_task,
-            cost: self.cost,
+            cost: self.cost.options(),
             dynamics: self.dynamics.clone(),
         })
     }
@@ -248,5 +276,50 @@ mod tests {
         let unknown = TABLE1_IDP.replace("mode = \"state\"", "mode = \"state\"\nwindow = 5");
         let err = format!("{:#}", read_config_str(&unknown).unwrap_err());
         assert!(err.contains("window"), "{err}");
+    }
+
+    #[test]
+    fn auto_keeps_the_strategy_and_the_scaling_it_chose() {
+        let record = |scalings: &[&str]| defender_report::StrategySelection {
+            chosen_by: "auto".into(),
+            candidates: 441,
+            equal: false,
+            min_lead: 1,
+            max_false_alarm: 0.1,
+            safe_demos: 50,
+            unsafe_demos: 50,
+            false_alarm_rate: 0.0,
+            crash_prevention_rate: 1.0,
+            safe_allowed: 1.0,
+            mean_lead: 5.0,
+            score: 1.0,
+            seconds: 1.0,
+            scalings: scalings.iter().map(ToString::to_string).collect(),
+        };
+        // Started as `auto` with no scaling: the selection chose MinBothW5/MinBothW5, z-scored.
+        let mut saved = read_config_str(TABLE1_IDP).unwrap();
+        let d = saved.defender.as_mut().unwrap();
+        d.strategy = StrategyChoice::Fixed("MinBothW5/MinBothW5".parse().unwrap());
+        d.cost.scaling = Some(defender::Scaling::Zscore);
+        d.selection = Some(record(&["none", "zscore"]));
+        let unset = TABLE1_IDP
+            .replace("\"MeanDemoW5/MeanDemoW10\"", "\"auto\"")
+            .replace("[defender.cost]\nscaling = \"none\"\n", "");
+        let request = read_config_str(&unset).unwrap();
+        assert_eq!(request.defender.as_ref().unwrap().cost.scaling, None);
+        let kept = request.clone().keeping_automatic_choice_of(&saved);
+        let k = kept.defender.as_ref().unwrap();
+        assert_eq!(k.strategy, saved.defender.as_ref().unwrap().strategy);
+        assert_eq!(k.cost.scaling, Some(defender::Scaling::Zscore));
+        assert!(crate::resume::differences(&saved, &kept, true).unwrap().is_empty());
+        // A request that fixes another scaling is another run: the difference shows.
+        let plain = read_config_str(&TABLE1_IDP.replace("\"MeanDemoW5/MeanDemoW10\"", "\"auto\"")).unwrap();
+        let kept = plain.keeping_automatic_choice_of(&saved);
+        let diffs = crate::resume::differences(&saved, &kept, true).unwrap();
+        assert_eq!(diffs, ["defender.cost.scaling: \"zscore\" -> \"none\""]);
+        // A given strategy with no scaling is plain DTW, and config.toml says so once resolved.
+        let given =
+            read_config_str(&unset.replace("strategy = \"auto\"", "strategy = \"MinBoth/MinBoth\"")).unwrap();
+        assert_eq!(given.defender.as_ref().unwrap().cost.options(), defender::CostOptions::default());
     }
 }

@@ -83,11 +83,18 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
     }
     let demos = EpisodeSet::load(&path)?;
     if section.strategy == StrategyChoice::Auto {
-        let (strategy, record) =
-            crate::commands::select::choose_for_run(&demos, section.mode, section.num_demos, section.cost)?;
+        let (strategy, scaling, record) = crate::commands::select::choose_for_run(
+            &demos,
+            section.mode,
+            section.num_demos,
+            section.cost.given(),
+        )?;
         section.strategy = strategy.into();
+        section.cost.scaling = Some(scaling);
         section.selection = Some(record);
     }
+    // config.toml names the scaling used, given or not.
+    section.cost.scaling.get_or_insert_default();
     let mut config = section.to_config()?;
     config.dynamics.background = model_on_own_thread(config.dynamics.background, Parallelism::default());
     let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Wrapper, 0));

@@ -47,7 +47,7 @@ fn first_row(csv: &Path) -> (String, f64, f64) {
     let text = std::fs::read_to_string(csv).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
     assert_eq!(row[0], "1");
-    (row[1].to_string(), row[5].parse().unwrap(), row[6].parse().unwrap())
+    (row[1].to_string(), row[6].parse().unwrap(), row[7].parse().unwrap())
 }
 
 #[test]
@@ -60,13 +60,13 @@ fn select_ranks_every_strategy_and_prints_the_top() {
     assert!(stdout.contains("rank  strategy") && stdout.contains("false_alarm"), "{stdout}");
     assert!(stdout.contains("441 strategies ranked from 3 + 3 demonstrations"), "{stdout}");
     let (best, fa, _) = first_row(&csv);
-    assert!(stdout.contains(&format!("chosen: {best} (state)")), "{stdout}");
+    assert!(stdout.contains(&format!("chosen: {best} (state, scaling none)")), "{stdout}");
     assert!(fa < 1.0);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "rank,strategy,safe_method,unsafe_method,mode,false_alarm_rate,crash_prevention_rate,\
+        "rank,strategy,safe_method,unsafe_method,mode,scaling,false_alarm_rate,crash_prevention_rate,\
          safe_allowed,unsafe_allowed,mean_lead,demo_score,ablation_score,score,eligible"
     );
     assert_eq!(lines.count(), 441);
@@ -82,6 +82,22 @@ fn select_ranks_every_strategy_and_prints_the_top() {
     let z = std::fs::read_to_string(&zscore).unwrap();
     assert_eq!(z.lines().count(), 442);
     assert_ne!(z, text, "z-scoring changed no cost");
+    // --scaling auto ranks both together: each one's rows, in each one's order.
+    let both = dir.path().join("both.csv");
+    #[rustfmt::skip]
+    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--scaling", "auto", "--out", s(&both)]);
+    let both = std::fs::read_to_string(&both).unwrap();
+    assert_eq!(both.lines().count(), 1 + 2 * 441);
+    let strategies_under = |csv: &str, scaling: &str| -> Vec<String> {
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|r| r[5] == scaling)
+            .map(|r| r[1..].join(","))
+            .collect()
+    };
+    assert_eq!(strategies_under(&both, "none"), strategies_under(&text, "none"));
+    assert_eq!(strategies_under(&both, "zscore"), strategies_under(&z, "zscore"));
     // --help explains the criterion.
     let help = String::from_utf8(ok(&["select", "--help"]).stdout).unwrap();
     for word in ["Leave-one-out", "false_alarm_rate", "crash_prevention_rate", "demo_score", "--episodes"] {
@@ -121,7 +137,7 @@ fn select_refuses_bad_input_clearly() {
         .output()
         .unwrap();
     assert_eq!(usage.status.code(), Some(2));
-    assert!(text(&usage).contains("invalid value 'minmax'") && text(&usage).contains("none, zscore"));
+    assert!(text(&usage).contains("invalid value 'minmax'") && text(&usage).contains("none, zscore, auto"));
     assert!(!csv.exists());
 }
 
@@ -138,8 +154,12 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     let dir = tempfile::tempdir().unwrap();
     let demos = shipped_demos();
     let csv = dir.path().join("sel.csv");
-    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--out", s(&csv)]);
+    // What `--strategy auto` compares when no scaling is set: plain and z-scored DTW.
+    #[rustfmt::skip]
+    ok(&["select", "--demos", s(&demos), "--num-demos", "3", "--no-equal", "--scaling", "auto", "--out", s(&csv)]);
     let (best, fa, cp) = first_row(&csv);
+    let scaling =
+        std::fs::read_to_string(&csv).unwrap().lines().nth(1).unwrap().split(',').nth(5).unwrap().to_string();
 
     let run = dir.path().join("run");
     let args = [
@@ -180,6 +200,11 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     assert_eq!(record["safe_demos"].as_integer(), Some(3));
     assert_eq!(record["false_alarm_rate"].as_float(), Some(fa));
     assert_eq!(record["crash_prevention_rate"].as_float(), Some(cp));
+    assert_eq!(section["cost"]["scaling"].as_str(), Some(scaling.as_str()));
+    assert_eq!(
+        record["scalings"].as_array().unwrap(),
+        &[toml::Value::from("none"), toml::Value::from("zscore")]
+    );
 
     // Resumed with the same command line: the choice is kept, nothing is selected again.
     let mut resume: Vec<&str> = args.to_vec();
@@ -200,12 +225,13 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     assert_eq!(summary["selection"]["crash_prevention_rate"].as_f64(), Some(cp));
     let report = String::from_utf8(ok(&["report", s(&run)]).stdout).unwrap();
     assert!(
-        report.contains("seed 1: strategy chosen by --strategy auto (held-out demonstrations:"),
+        report.contains("seed 1: strategy chosen by --strategy auto, scaling chosen among none, zscore (held-out demonstrations:"),
         "{report}"
     );
     // The table names the choice as automatic, in a row of its own.
     let (safe, unsafe_) = best.split_once('/').unwrap();
-    let row = format!("| SAC       | auto: {safe}");
+    let label = if scaling == "zscore" { "auto, z-score" } else { "auto" };
+    let row = format!("| SAC       | {label}: {safe}");
     assert!(report.contains(&row) && report.contains(unsafe_), "{report}");
     let run_loaded = defender_report::Run::load(&run).unwrap();
     assert!(run_loaded.config.filter.as_ref().unwrap().auto);
@@ -248,7 +274,7 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
         let (demo, ablation, score): (f64, f64, f64) =
-            (f[10].parse().unwrap(), f[11].parse().unwrap(), f[12].parse().unwrap());
+            (f[11].parse().unwrap(), f[12].parse().unwrap(), f[13].parse().unwrap());
         assert!((0.0..=1.0).contains(&ablation), "{line}");
         assert_eq!(score, demo * ablation, "{line}");
     }

@@ -179,6 +179,11 @@ fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
     };
     let before = chosen(&run);
     assert_eq!(before["defender"]["selection"]["chosen_by"].as_str(), Some("auto"));
+    // No scaling set: auto compared plain and z-scored DTW, and config.toml names the one kept.
+    let compared = before["defender"]["selection"]["scalings"].as_array().unwrap();
+    assert_eq!(compared, &[toml::Value::from("none"), toml::Value::from("zscore")]);
+    let kept = before["defender"]["cost"]["scaling"].as_str().unwrap();
+    assert!(kept == "none" || kept == "zscore", "{kept}");
 
     let again = defender(&["sweep", s(&experiment), "--out", s(&out)]);
     assert!(again.status.success(), "{}", text(&again));

@@ -52,15 +52,11 @@ pub(crate) fn parse_mode(s: &str) -> PyResult<Mode> {
 /// The alignment cost's options from `scaling`: `"none"` (SPEC section 2's plain DTW) or
 /// `"zscore"` (per feature, fitted on the demonstrations), as a run's `[defender.cost] scaling`.
 pub(crate) fn parse_cost(scaling: &str) -> PyResult<CostOptions> {
-    let scaling = match scaling {
-        "none" => Scaling::None,
-        "zscore" => Scaling::Zscore,
-        other => {
-            return Err(DefenderError::new_err(format!(
-                "scaling: unknown '{other}'; expected 'none' (plain DTW) or 'zscore'"
-            )));
-        }
-    };
+    let scaling: Scaling = scaling.parse().map_err(|_| {
+        DefenderError::new_err(format!(
+            "scaling: unknown '{scaling}'; expected 'none' (plain DTW) or 'zscore'"
+        ))
+    })?;
     Ok(CostOptions { scaling })
 }
 

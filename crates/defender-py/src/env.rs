@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 
 use defender::selection::StrategyChoice;
-use defender::{DefenderConfig, DefenderEnv, DynamicsConfig};
+use defender::{CostOptions, DefenderConfig, DefenderEnv, DynamicsConfig};
 use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -233,7 +233,7 @@ impl Core {
         r_task: Option<f64>,
         dynamics_json: Option<String>,
         seed: Option<u64>,
-        scaling: &str,
+        scaling: Option<&str>,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -241,7 +241,7 @@ impl Core {
             let demos = episode_set_arg(demos, "demos")?;
             let choice: StrategyChoice = parse_name(strategy, "strategy")?;
             let mode = parse_mode(mode)?;
-            let cost = parse_cost(scaling)?;
+            let given_cost = scaling.map(parse_cost).transpose()?;
             let dynamics: DynamicsConfig = match dynamics_json {
                 Some(text) => serde_json::from_str(&text)
                     .map_err(|e| DefenderError::new_err(format!("dynamics: {e}")))?,
@@ -269,11 +269,13 @@ impl Core {
             };
             // strategy="auto": chosen here, from these demonstrations, as `defender train
             // --strategy auto` chooses (docs/decisions.md).
-            let (strategy, auto) = match choice {
-                StrategyChoice::Fixed(s) => (s, None),
+            // Without a scaling, auto compares plain and z-scored DTW; a given strategy uses
+            // plain DTW (SPEC section 2).
+            let (strategy, cost, auto) = match choice {
+                StrategyChoice::Fixed(s) => (s, given_cost.unwrap_or_default(), None),
                 StrategyChoice::Auto => {
-                    let auto = choose_auto(py, &demos, mode, num_demos, cost)?;
-                    (auto.best.strategy, Some(auto))
+                    let auto = choose_auto(py, &demos, mode, num_demos, given_cost)?;
+                    (auto.best.strategy, CostOptions { scaling: auto.best.scaling }, Some(auto))
                 }
             };
             let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, dynamics };

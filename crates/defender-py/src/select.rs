@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use defender::selection::{Selection, SelectionConfig, StrategyScore, select};
+use defender::selection::{AUTO_COSTS, Selection, SelectionConfig, StrategyScore, select};
 use defender::{CostOptions, EpisodeSet, Mode};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -42,6 +42,8 @@ pub(crate) struct AutoChoice {
     max_false_alarm: f64,
     demos: (usize, usize),
     seconds: f64,
+    /// The scalings compared (empty when the wrapper was given one).
+    scalings: Vec<String>,
 }
 
 impl AutoChoice {
@@ -50,6 +52,7 @@ impl AutoChoice {
         let b = &self.best;
         let d = PyDict::new(py);
         d.set_item("strategy", b.strategy.to_string())?;
+        d.set_item("scaling", b.scaling.to_string())?;
         d.set_item("chosen_by", "auto")?;
         d.set_item("candidates", self.candidates)?;
         d.set_item("equal", self.equal)?;
@@ -64,13 +67,15 @@ impl AutoChoice {
         d.set_item("mean_lead", b.mean_lead)?;
         d.set_item("score", b.score)?;
         d.set_item("seconds", self.seconds)?;
+        d.set_item("scalings", self.scalings.clone())?;
         Ok(d)
     }
 }
 
 /// `strategy="auto"`: the selection `defender train --strategy auto` runs (state or
-/// state-action mode and `num_demos` as the run's, without the `Equal` window, SPEC's plain DTW,
-/// the default lead time and false-alarm budget), without the GIL.
+/// state-action mode and `num_demos` as the run's, without the `Equal` window, under `cost` if
+/// given, else comparing plain and z-scored DTW, the default lead time and false-alarm budget),
+/// without the GIL.
 ///
 /// # Errors
 /// As [`select`]; and when no strategy is eligible (the same refusal as `defender train`).
@@ -79,9 +84,9 @@ pub(crate) fn choose_auto(
     demos: &EpisodeSet,
     mode: Mode,
     num_demos: Option<usize>,
-    cost: CostOptions,
+    cost: Option<CostOptions>,
 ) -> PyResult<AutoChoice> {
-    let config = SelectionConfig { mode, num_demos, equal: false, cost, ..SelectionConfig::default() };
+    let config = SelectionConfig::for_run(mode, num_demos, cost);
     let start = Instant::now();
     let selection = py
         .detach(|| on_local_pool(None, || select(demos, None, &config, &|_| {})))?
@@ -97,19 +102,25 @@ pub(crate) fn choose_auto(
     };
     Ok(AutoChoice {
         best,
-        candidates: selection.rows.len(),
+        candidates: selection.rows.len() / config.costs.len(),
         equal: config.equal,
         min_lead: config.min_lead,
         max_false_alarm: config.max_false_alarm,
         demos: selection.demos,
         seconds: start.elapsed().as_secs_f64(),
+        scalings: if config.costs.len() > 1 {
+            config.costs.iter().map(|c| c.scaling.to_string()).collect()
+        } else {
+            Vec::new()
+        },
     })
 }
 
 /// `select(demos, episodes=None, mode="state", num_demos=None, equal=True, strategies=None,
 /// min_lead=1, max_false_alarm=0.1, as_numpy=False, scaling="none")`: ranks strategies for one task from its
 /// demonstrations by leave-one-out, times the ablation score on recorded `episodes` when given,
-/// as `defender select` does (same options, same rows as its `selection.csv`). The first row is
+/// as `defender select` does (same options, same rows as its `selection.csv`; `scaling="auto"`
+/// ranks plain and z-scored DTW together, as `strategy="auto"` compares them). The first row is
 /// the choice when its `eligible` is true. Returns a list of dicts, or with `as_numpy` a dict of
 /// arrays.
 #[pyfunction(name = "select")]
@@ -129,11 +140,11 @@ pub(crate) fn select_strategies<'py>(
     scaling: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let mode = parse_mode(mode)?;
-    let cost = parse_cost(scaling)?;
+    let costs = if scaling == "auto" { AUTO_COSTS.to_vec() } else { vec![parse_cost(scaling)?] };
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episodes.filter(|e| !e.is_none()).map(|e| episode_set_arg(e, "episodes")).transpose()?;
     let strategies = parse_strategies(strategies)?;
-    let config = SelectionConfig { mode, num_demos, equal, strategies, min_lead, max_false_alarm, cost };
+    let config = SelectionConfig { mode, num_demos, equal, strategies, min_lead, max_false_alarm, costs };
     let selection = guard("select", || {
         py.detach(|| on_local_pool(None, || select(&demos, episodes.as_ref(), &config, &|_| {})))?
             .map_err(defender_err)
@@ -145,6 +156,7 @@ fn dict_rows<'py>(py: Python<'py>, selection: &Selection) -> PyResult<Bound<'py,
     let out = PyList::empty(py);
     for r in &selection.rows {
         let d = strategy_row(py, r.rank, &r.strategy, r.mode)?;
+        d.set_item("scaling", r.scaling.to_string())?;
         d.set_item("false_alarm_rate", r.false_alarm_rate)?;
         d.set_item("crash_prevention_rate", r.crash_prevention_rate)?;
         d.set_item("safe_allowed", r.safe_allowed)?;
@@ -167,6 +179,8 @@ fn numpy_rows<'py>(py: Python<'py>, selection: &Selection) -> PyResult<Bound<'py
     d.set_item("rank", PyArray1::from_iter(py, rows.iter().map(|r| r.rank as i64)))?;
     let names: Vec<String> = rows.iter().map(|r| r.strategy.to_string()).collect();
     d.set_item("strategy", py.import("numpy")?.call_method1("array", (names,))?)?;
+    let scalings: Vec<String> = rows.iter().map(|r| r.scaling.to_string()).collect();
+    d.set_item("scaling", py.import("numpy")?.call_method1("array", (scalings,))?)?;
     d.set_item("false_alarm_rate", f(|r| r.false_alarm_rate))?;
     d.set_item("crash_prevention_rate", f(|r| r.crash_prevention_rate))?;
     d.set_item("safe_allowed", f(|r| r.safe_allowed))?;

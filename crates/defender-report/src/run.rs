@@ -177,6 +177,10 @@ pub struct StrategySelection {
     pub score: f64,
     /// Seconds the selection took.
     pub seconds: f64,
+    /// The feature scalings compared when the run set none (`["none", "zscore"]`; the one chosen
+    /// is `[defender.cost] scaling`); empty when the run's own scaling was used.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scalings: Vec<String>,
 }
 
 impl Summary {

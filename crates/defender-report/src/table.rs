@@ -139,9 +139,15 @@ impl Table {
             // Runs whose strategy `--strategy auto` chose say so, with the choice's scores.
             for run in &group {
                 if let Some(s) = &run.summary.selection {
+                    // With the scalings it compared, when it chose the scaling too.
+                    let scalings = if s.scalings.is_empty() {
+                        String::new()
+                    } else {
+                        format!(", scaling chosen among {}", s.scalings.join(", "))
+                    };
                     table.notes.push(format!(
-                        "{} seed {}: strategy chosen by --strategy {} (held-out demonstrations: {:.0}% \
-                         false alarms, {:.0}% of crashes prevented).",
+                        "{} seed {}: strategy chosen by --strategy {}{scalings} (held-out demonstrations: \
+                         {:.0}% false alarms, {:.0}% of crashes prevented).",
                         row.label(),
                         run.config.seed,
                         s.chosen_by,

@@ -22,6 +22,36 @@ pub enum Scaling {
     Zscore,
 }
 
+impl Scaling {
+    /// Every scaling, in the order of their names.
+    pub const ALL: [Scaling; 2] = [Scaling::None, Scaling::Zscore];
+
+    /// The name in configurations and CSV files: `none` or `zscore`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scaling::None => "none",
+            Scaling::Zscore => "zscore",
+        }
+    }
+}
+
+impl std::fmt::Display for Scaling {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Scaling {
+    type Err = DefenderError;
+    fn from_str(s: &str) -> Result<Self> {
+        Scaling::ALL.into_iter().find(|c| c.name() == s).ok_or_else(|| DefenderError::UnknownName {
+            kind: "scaling",
+            name: s.to_string(),
+            valid: "none (plain DTW), zscore".to_string(),
+        })
+    }
+}
+
 /// Options of the alignment cost; the defaults are SPEC section 2's plain DTW.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

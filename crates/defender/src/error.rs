@@ -72,7 +72,7 @@ pub enum DefenderError {
     /// A name (window, method, strategy, mode) that does not parse.
     #[error("unknown {kind} '{name}'; valid forms: {valid}")]
     UnknownName {
-        /// `window`, `aggregation`, `method`, `strategy` or `mode`.
+        /// `window`, `aggregation`, `method`, `strategy`, `mode` or `scaling`.
         kind: &'static str,
         /// The name given.
         name: String,

@@ -32,6 +32,13 @@
 //! catch the same crashes, the one that waits longer is the less aggressive: it is less likely to
 //! stop an agent whose early states resemble neither group), then the strategy's name. [`Selection::best`] is the first row if it is eligible.
 //!
+//! **Cost options.** [`SelectionConfig::costs`] lists the alignment costs compared (default SPEC
+//! section 2's plain DTW alone). Each row is one strategy under one cost; the rows of every cost
+//! are ranked together by the same order (the rates are measured on the same held-out
+//! demonstrations, so they compare), a tie keeping the cost listed first. `strategy = "auto"`
+//! with no scaling configured compares [`AUTO_COSTS`], plain and z-scored DTW (docs/decisions.md,
+//! "z-scored DTW").
+//!
 //! The work is shared as in the ablation ([`crate::Ablation`]): one DTW stream per group computes
 //! every window any strategy needs against all demonstrations at once, and leaving a
 //! demonstration out only drops its column from the aggregations (bit for bit the filter built
@@ -43,7 +50,7 @@ use std::path::Path;
 
 use crate::ablation::{Ablation, Progress};
 use crate::atomic::{io_at, write_atomic};
-use crate::demonstrations::{CostOptions, Demonstrations};
+use crate::demonstrations::{CostOptions, Demonstrations, Scaling};
 use crate::episode_set::EpisodeSet;
 use crate::error::{DefenderError, Result};
 use crate::score::StrategyTally;
@@ -130,13 +137,18 @@ pub struct SelectionConfig {
     /// The false-alarm budget: a strategy whose false-alarm rate exceeds it is not chosen
     /// (in [0, 1]; default 0.1).
     pub max_false_alarm: f64,
-    /// Options of the alignment cost.
-    pub cost: CostOptions,
+    /// The alignment costs compared (each strategy is ranked under each; default: plain DTW).
+    pub costs: Vec<CostOptions>,
 }
+
+/// What `strategy = "auto"` compares when the run configures no scaling: SPEC section 2's plain
+/// DTW first (it wins ties), then DTW on z-scored features.
+pub const AUTO_COSTS: [CostOptions; 2] =
+    [CostOptions { scaling: Scaling::None }, CostOptions { scaling: Scaling::Zscore }];
 
 impl Default for SelectionConfig {
     /// State mode, all demonstrations, all 576 strategies, `L = 1`, a 10% false-alarm budget,
-    /// plain DTW.
+    /// plain DTW alone.
     fn default() -> Self {
         Self {
             mode: Mode::State,
@@ -145,12 +157,25 @@ impl Default for SelectionConfig {
             strategies: None,
             min_lead: 1,
             max_false_alarm: 0.1,
-            cost: CostOptions::default(),
+            costs: vec![CostOptions::default()],
         }
     }
 }
 
 impl SelectionConfig {
+    /// The selection `strategy = "auto"` makes before a run: the run's mode and `num_demos`,
+    /// without the `Equal` window (minutes to hours before training starts), under the run's
+    /// cost if it configures one, else comparing [`AUTO_COSTS`].
+    pub fn for_run(mode: Mode, num_demos: Option<usize>, cost: Option<CostOptions>) -> Self {
+        Self {
+            mode,
+            num_demos,
+            equal: false,
+            costs: cost.map_or_else(|| AUTO_COSTS.to_vec(), |c| vec![c]),
+            ..Self::default()
+        }
+    }
+
     /// The strategies ranked, in the fixed order of [`Strategy::all`] (or the order given).
     pub fn candidates(&self) -> Vec<Strategy> {
         let mut list: Vec<Strategy> = match &self.strategies {
@@ -173,6 +198,8 @@ pub struct StrategyScore {
     pub strategy: Strategy,
     /// The trajectory mode.
     pub mode: Mode,
+    /// The feature scaling of the alignment cost the strategy was scored under.
+    pub scaling: Scaling,
     /// Held-out safe demonstrations filtered at some step / safe demonstrations.
     pub false_alarm_rate: f64,
     /// Held-out unsafe demonstrations filtered with the lead time required / unsafe ones.
@@ -217,9 +244,14 @@ impl Selection {
         self.rows.first().filter(|r| r.eligible)
     }
 
-    /// The row of `strategy`, if it was ranked.
-    pub fn get(&self, strategy: Strategy) -> Option<&StrategyScore> {
-        self.rows.iter().find(|r| r.strategy == strategy)
+    /// The row of `strategy` under `scaling`, if it was ranked.
+    pub fn get(&self, strategy: Strategy, scaling: Scaling) -> Option<&StrategyScore> {
+        self.rows.iter().find(|r| r.strategy == strategy && r.scaling == scaling)
+    }
+
+    /// The best row under `scaling`, if one is eligible.
+    pub fn best_under(&self, scaling: Scaling) -> Option<&StrategyScore> {
+        self.rows.iter().find(|r| r.scaling == scaling).filter(|r| r.eligible)
     }
 
     /// Writes the rows as `selection.csv` (header [`SELECTION_CSV_HEADER`]), atomically; numbers in
@@ -234,12 +266,13 @@ impl Selection {
             for r in &self.rows {
                 writeln!(
                     w,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     r.rank,
                     r.strategy,
                     r.strategy.safe,
                     r.strategy.unsafe_,
                     r.mode,
+                    r.scaling,
                     r.false_alarm_rate,
                     r.crash_prevention_rate,
                     r.safe_allowed,
@@ -258,7 +291,7 @@ impl Selection {
 }
 
 /// The header of `selection.csv`.
-pub const SELECTION_CSV_HEADER: &str = "rank,strategy,safe_method,unsafe_method,mode,false_alarm_rate,\
+pub const SELECTION_CSV_HEADER: &str = "rank,strategy,safe_method,unsafe_method,mode,scaling,false_alarm_rate,\
 crash_prevention_rate,safe_allowed,unsafe_allowed,mean_lead,demo_score,ablation_score,score,eligible";
 
 /// Per-strategy sums over held-out demonstrations.
@@ -296,6 +329,7 @@ impl Tally {
         &self,
         strategy: Strategy,
         mode: Mode,
+        scaling: Scaling,
         ablation_score: Option<f64>,
         max_fa: f64,
     ) -> StrategyScore {
@@ -307,6 +341,7 @@ impl Tally {
             rank: 0,
             strategy,
             mode,
+            scaling,
             false_alarm_rate,
             crash_prevention_rate,
             safe_allowed: self.safe_allowed / self.safe.max(1) as f64,
@@ -330,7 +365,7 @@ fn order(a: &StrategyScore, b: &StrategyScore) -> Ordering {
         .then_with(|| a.strategy.to_string().cmp(&b.strategy.to_string()))
 }
 
-/// Sorts rows by the ranking order and numbers them 1, 2, ...
+/// Sorts rows by the ranking order (stably: a tie keeps the given order) and numbers them 1, 2, ...
 pub fn rank_selection(mut rows: Vec<StrategyScore>) -> Vec<StrategyScore> {
     rows.sort_by(order);
     for (i, r) in rows.iter_mut().enumerate() {
@@ -341,13 +376,14 @@ pub fn rank_selection(mut rows: Vec<StrategyScore>) -> Vec<StrategyScore> {
 
 /// Ranks the strategies of `config` for the task of `demos` by leave-one-out over its
 /// demonstrations, combined with the SPEC-7 ablation score on `episodes` when given (module
-/// documentation). `progress` is called after each replayed demonstration and episode (from
-/// worker threads); `total` counts both.
+/// documentation), under each of `config.costs`. `progress` is called after each replayed
+/// demonstration and episode (from worker threads); `total` counts both, once per cost.
 ///
 /// # Errors
 /// A missing group; fewer than two demonstrations in a group (leave-one-out needs another one);
 /// `num_demos` larger than a group; `min_lead = 0`; `max_false_alarm` outside [0, 1] or NaN; no
-/// strategy to rank; recorded episodes of another task (dimensions or env id) or an empty episode set.
+/// strategy to rank; no cost, or one listed twice; recorded episodes of another task (dimensions
+/// or env id) or an empty episode set.
 pub fn select(
     demos: &EpisodeSet,
     episodes: Option<&EpisodeSet>,
@@ -386,6 +422,12 @@ pub fn select(
     if candidates.is_empty() {
         return Err(DefenderError::Config("no strategy to rank".into()));
     }
+    if config.costs.is_empty() {
+        return Err(DefenderError::Config("no alignment cost to rank the strategies under".into()));
+    }
+    if let Some((i, c)) = config.costs.iter().enumerate().find(|(i, c)| config.costs[..*i].contains(c)) {
+        return Err(DefenderError::Config(format!("alignment cost {} listed twice ({c:?})", i + 1)));
+    }
     if let Some(episodes) = episodes {
         let env_id = demos
             .meta()
@@ -395,12 +437,39 @@ pub fn select(
             .unwrap_or("the demonstrations");
         episodes.check_env(env_id, demos.obs_dim(), demos.act_dim())?;
     }
-    let prepared = Demonstrations::new(demos, config.mode, config.cost)?;
-    let ablation = Ablation::new(&prepared, &candidates)?;
-    let strategies = ablation.strategies();
-    let total = demos.len() + episodes.map_or(0, EpisodeSet::len);
+    let per_cost = demos.len() + episodes.map_or(0, EpisodeSet::len);
+    let total = per_cost * config.costs.len();
+    let mut rows = Vec::with_capacity(candidates.len() * config.costs.len());
+    for (i, &cost) in config.costs.iter().enumerate() {
+        let offset = i * per_cost;
+        let overall = |p: Progress| progress(Progress { done: offset + p.done, total, ..p });
+        rows.extend(score_under(demos, episodes, config, cost, &candidates, &overall)?);
+    }
+    Ok(Selection {
+        mode: config.mode,
+        demos: (n_safe, n_unsafe),
+        episodes: episodes.map_or(0, EpisodeSet::len),
+        min_lead: config.min_lead,
+        max_false_alarm: config.max_false_alarm,
+        rows: rank_selection(rows),
+    })
+}
 
-    let replays = ablation.replay_held_out(demos, &|p| progress(Progress { total, ..p }))?;
+/// The rows of every candidate under one alignment cost (unranked); `progress` counts the
+/// demonstrations, then the episodes.
+fn score_under(
+    demos: &EpisodeSet,
+    episodes: Option<&EpisodeSet>,
+    config: &SelectionConfig,
+    cost: CostOptions,
+    candidates: &[Strategy],
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<Vec<StrategyScore>> {
+    let prepared = Demonstrations::new(demos, config.mode, cost)?;
+    let ablation = Ablation::new(&prepared, candidates)?;
+    let strategies = ablation.strategies();
+
+    let replays = ablation.replay_held_out(demos, progress)?;
     let mut tallies = vec![Tally::default(); strategies.len()];
     for (_, r) in &replays {
         for (tally, k) in tallies.iter_mut().zip(&r.first_filtered) {
@@ -412,8 +481,8 @@ pub fn select(
         None => None,
         Some(episodes) => {
             let offset = demos.len();
-            let recorded = ablation
-                .replay_all(episodes, &|p| progress(Progress { done: offset + p.done, total, ..p }))?;
+            let recorded =
+                ablation.replay_all(episodes, &|p| progress(Progress { done: offset + p.done, ..p }))?;
             let mut t = vec![StrategyTally::default(); strategies.len()];
             for r in &recorded {
                 for (tally, k) in t.iter_mut().zip(&r.first_filtered) {
@@ -423,21 +492,14 @@ pub fn select(
             Some(t.iter().zip(strategies).map(|(t, &s)| t.row(s, config.mode).score).collect())
         }
     };
-    let rows = strategies
+    Ok(strategies
         .iter()
         .enumerate()
         .map(|(i, &s)| {
-            tallies[i].score(s, config.mode, ablation_scores.as_ref().map(|a| a[i]), config.max_false_alarm)
+            let ablation_score = ablation_scores.as_ref().map(|a| a[i]);
+            tallies[i].score(s, config.mode, cost.scaling, ablation_score, config.max_false_alarm)
         })
-        .collect();
-    Ok(Selection {
-        mode: config.mode,
-        demos: (n_safe, n_unsafe),
-        episodes: episodes.map_or(0, EpisodeSet::len),
-        min_lead: config.min_lead,
-        max_false_alarm: config.max_false_alarm,
-        rows: rank_selection(rows),
-    })
+        .collect())
 }
 
 #[cfg(test)]
@@ -449,7 +511,7 @@ mod tests {
         for &(len, crashed, k) in entries {
             t.add(len, crashed, k, min_lead);
         }
-        t.score("MinBoth/MinBoth".parse().unwrap(), Mode::State, None, 1.0)
+        t.score("MinBoth/MinBoth".parse().unwrap(), Mode::State, Scaling::None, None, 1.0)
     }
 
     #[test]
@@ -510,5 +572,10 @@ mod tests {
         let rows = rank_selection(vec![c, b, a]);
         let names: Vec<String> = rows.iter().map(|r| format!("{} {}", r.rank, r.strategy)).collect();
         assert_eq!(names, ["1 MaxBoth/MinBoth", "2 MeanBoth/MinBoth", "3 MinBoth/MinBoth"]);
+        // The same strategy scored alike under two costs: the cost listed first wins the tie.
+        let plain = tally(&[(10, false, None), (10, true, Some(2))], 1);
+        let z = StrategyScore { scaling: Scaling::Zscore, ..plain.clone() };
+        assert_eq!(rank_selection(vec![plain.clone(), z.clone()])[0].scaling, Scaling::None);
+        assert_eq!(rank_selection(vec![z, plain])[0].scaling, Scaling::Zscore);
     }
 }

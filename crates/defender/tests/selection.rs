@@ -3,9 +3,11 @@
 
 #![allow(clippy::unwrap_used)] // test helpers fail loudly on purpose
 
-use defender::selection::{Selection, SelectionConfig, select};
+use defender::selection::{AUTO_COSTS, Selection, SelectionConfig, select};
 use defender::synthetic::LateDivergence;
-use defender::{CostOptions, DefenderError, Demonstrations, EpisodeSet, Filter, Meta, Mode, Strategy};
+use defender::{
+    CostOptions, DefenderError, Demonstrations, EpisodeSet, Filter, Meta, Mode, Scaling, Strategy,
+};
 
 fn quiet() -> impl Fn(defender::Progress) + Sync {
     |_| {}
@@ -51,7 +53,7 @@ fn leave_one_out_equals_filters_built_without_the_held_out_demonstration() {
                     safe_allowed += k.map_or(1.0, |k| (k + 1) as f64 / e.len() as f64);
                 }
             }
-            let row = selection.get(s).unwrap();
+            let row = selection.get(s, Scaling::None).unwrap();
             assert_eq!(row.false_alarm_rate, alarms as f64 / 3.0, "{s} {mode}");
             assert_eq!(row.crash_prevention_rate, prevented as f64 / 3.0, "{s} {mode}");
             assert_eq!(row.safe_allowed, safe_allowed / 3.0, "{s} {mode}");
@@ -180,11 +182,61 @@ fn recorded_episodes_multiply_in_the_ablation_score() {
     )
     .unwrap();
     for a in &ablation {
-        let row = both.get(a.strategy).unwrap();
+        let row = both.get(a.strategy, Scaling::None).unwrap();
         assert_eq!(row.ablation_score, Some(a.score));
-        assert_eq!(row.demo_score, demo_only.get(a.strategy).unwrap().demo_score);
+        assert_eq!(row.demo_score, demo_only.get(a.strategy, Scaling::None).unwrap().demo_score);
         assert_eq!(row.score, row.demo_score * a.score);
     }
+}
+
+/// The late-divergence task with a wide, uninformative third feature (as a joint velocity is on
+/// Hopper-v5 and Walker2d-v5: docs/decisions.md, "z-scored DTW"): its noise, 1000 times the scale
+/// of the others, drowns the late drift of the first feature in the raw Euclidean cost.
+fn drowned_divergence(seed: u64) -> EpisodeSet {
+    let base = LateDivergence::SMALL.build(seed, Meta::default()).unwrap();
+    let mut set = EpisodeSet::new(base.obs_dim(), base.act_dim(), Meta::default()).unwrap();
+    for e in base.episodes() {
+        let mut obs = e.obs.to_vec();
+        obs.iter_mut().skip(2).step_by(3).for_each(|v| *v *= 1000.0);
+        set.push_episode(&obs, e.act, e.rew, e.crashed).unwrap();
+    }
+    set
+}
+
+#[test]
+fn auto_compares_plain_and_z_scored_dtw_and_keeps_the_better() {
+    let set = drowned_divergence(5);
+    let auto = SelectionConfig::for_run(Mode::State, None, None);
+    assert_eq!(auto.costs, AUTO_COSTS);
+    assert!(!auto.equal);
+    let both = select(&set, None, &auto, &quiet()).unwrap();
+    assert_eq!(both.rows.len(), 2 * 441);
+    // Each cost's rows are exactly that cost's selection alone.
+    for cost in AUTO_COSTS {
+        let alone =
+            select(&set, None, &SelectionConfig::for_run(Mode::State, None, Some(cost)), &quiet()).unwrap();
+        assert_eq!(alone.rows.len(), 441);
+        assert!(alone.rows.iter().all(|r| r.scaling == cost.scaling));
+        for r in &alone.rows {
+            let mut same = both.get(r.strategy, cost.scaling).unwrap().clone();
+            same.rank = r.rank;
+            assert_eq!(&same, r);
+        }
+        assert_eq!(alone.best(), alone.best_under(cost.scaling));
+        assert_eq!(both.best_under(cost.scaling).map(|r| r.strategy), alone.best().map(|r| r.strategy));
+    }
+    // The noise hides the drift from plain DTW; z-scored, it is caught without false alarms.
+    let plain = both.best_under(Scaling::None).map_or(0.0, |r| r.score);
+    let best = both.best().unwrap();
+    assert_eq!(best.scaling, Scaling::Zscore, "{best:?}");
+    assert_eq!((best.false_alarm_rate, best.crash_prevention_rate), (0.0, 1.0), "{best:?}");
+    assert!(plain < 0.75, "plain DTW's best scores {plain}");
+    // The CSV names each row's scaling.
+    let dir = tempfile::tempdir().unwrap();
+    both.write_csv(dir.path().join("s.csv")).unwrap();
+    let text = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    assert!(text.lines().next().unwrap().contains(",mode,scaling,"));
+    assert!(text.lines().nth(1).unwrap().contains(",state,zscore,"), "{text:.300}");
 }
 
 #[test]
@@ -229,6 +281,14 @@ fn bad_input_is_a_clear_error() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("min_lead"), "{err}");
+    for (costs, expected) in
+        [(vec![], "no alignment cost"), (vec![CostOptions::default(); 2], "listed twice")]
+    {
+        let err = select(&set, None, &SelectionConfig { costs, ..config.clone() }, &quiet())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(expected), "{err}");
+    }
     for bad in [f64::NAN, -0.1, 1.5] {
         let err = select(&set, None, &SelectionConfig { max_false_alarm: bad, ..config.clone() }, &quiet())
             .unwrap_err()

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use defender::selection::{Selection, SelectionConfig, StrategyScore, select};
+use defender::selection::{AUTO_COSTS, Selection, SelectionConfig, StrategyScore, select};
 use defender::{EpisodeSet, Mode};
 use defender_report::StrategySelection;
 
@@ -32,11 +32,14 @@ use crate::text_table::{Column, TextTable};
   Ranking: a strategy is eligible when false_alarm_rate <= --max-false-alarm (default 0.1) and
   < 1 (it never filters every held-out safe demonstration); eligible strategies come first and
   only they are chosen. Then score, highest first; ties by safe_allowed, then unsafe_allowed (higher: the less
-  aggressive of two equally good strategies), then the name. The CSV columns are described in
-  docs/run-directory.md (\"selection.csv\").
+  aggressive of two equally good strategies), then the name. With --scaling auto every strategy is
+  scored under plain and under z-scored DTW and the rows of both are ranked together (a tie keeps
+  plain DTW): the first row is what `defender train --strategy auto` chooses when the run sets no
+  scaling. The CSV columns are described in docs/run-directory.md (\"selection.csv\").
 
 Examples:
   defender select --demos data/demos/Hopper-v5.npz --no-equal --out selection.csv
+  defender select --demos data/demos/Hopper-v5.npz --no-equal --scaling auto --out selection.csv
   defender select --demos data/demos/Hopper-v5.npz --mode state-action --num-demos 20 --out sel.csv
   defender select --demos data/demos/Hopper-v5.npz --episodes hopper-episodes.npz --out sel.csv
   defender train --env Hopper-v5 --strategy auto --steps 300000 --out runs/hopper-auto")]
@@ -68,8 +71,9 @@ pub struct SelectArgs {
     #[arg(long, default_value_t = 0.1)]
     pub max_false_alarm: f64,
     /// Feature scaling before DTW, as a run's `[defender.cost] scaling`: `none` (SPEC section 2's
-    /// plain DTW) or `zscore` (per feature, fitted on the demonstrations).
-    #[arg(long, default_value = "none", value_parser = ["none", "zscore"])]
+    /// plain DTW), `zscore` (per feature, fitted on the demonstrations), or `auto` (both, ranked
+    /// together, as `--strategy auto` compares them; twice the time).
+    #[arg(long, default_value = "none", value_parser = ["none", "zscore", "auto"])]
     pub scaling: String,
     /// Rows to print.
     #[arg(long, default_value_t = 10)]
@@ -93,12 +97,10 @@ pub fn run(args: SelectArgs) -> Result<()> {
         },
         min_lead: args.min_lead,
         max_false_alarm: args.max_false_alarm,
-        cost: defender::CostOptions {
-            scaling: if args.scaling == "zscore" {
-                defender::Scaling::Zscore
-            } else {
-                defender::Scaling::None
-            },
+        costs: if args.scaling == "auto" {
+            AUTO_COSTS.to_vec()
+        } else {
+            vec![defender::CostOptions { scaling: args.scaling.parse()? }]
         },
     };
     let demos = EpisodeSet::load(&args.demos)?;
@@ -122,7 +124,7 @@ pub fn run(args: SelectArgs) -> Result<()> {
         args.out.display()
     );
     match selection.best() {
-        Some(best) => println!("chosen: {} ({mode})", best.strategy),
+        Some(best) => println!("chosen: {} ({mode}, scaling {})", best.strategy, best.scaling),
         None => println!(
             "no strategy chosen: each one raises false alarms on more than {}% of the held-out safe \
              demonstrations (--max-false-alarm)",
@@ -140,6 +142,7 @@ fn run_selection(
     task: &str,
 ) -> Result<Selection> {
     let total = config.num_demos.map_or(demos.len(), |n| 2 * n) + episodes.map_or(0, EpisodeSet::len);
+    let total = total * config.costs.len();
     let bar = progress::bar(total as u64, "replays");
     bar.set_message(format!(
         "{task}: {} strategies, {} mode, leave-one-out",
@@ -155,6 +158,7 @@ fn print_top(rows: &[StrategyScore], top: usize) {
     let mut table = TextTable::new(vec![
         Column::right("rank"),
         Column::left("strategy"),
+        Column::left("scaling"),
         Column::right("false_alarm"),
         Column::right("prevention"),
         Column::right("safe_allowed"),
@@ -166,6 +170,7 @@ fn print_top(rows: &[StrategyScore], top: usize) {
         table.row([
             r.rank.to_string(),
             r.strategy.to_string(),
+            r.scaling.to_string(),
             format!("{:.4}", r.false_alarm_rate),
             format!("{:.4}", r.crash_prevention_rate),
             format!("{:.4}", r.safe_allowed),
@@ -178,20 +183,22 @@ fn print_top(rows: &[StrategyScore], top: usize) {
 }
 
 /// `strategy = "auto"` in a run: chooses the strategy on the run's demonstrations (its
-/// `num_demos`, `mode` and cost options; without the Equal window, which would cost minutes to
-/// hours before training starts) and returns it with its record for `config.toml` and
+/// `num_demos`, `mode`, and its cost if it sets one, else comparing plain and z-scored DTW;
+/// without the Equal window, which would cost minutes to hours before training starts) and
+/// returns it, the scaling it was chosen under, and the record for `config.toml` and
 /// `summary.json`.
 pub fn choose_for_run(
     demos: &EpisodeSet,
     mode: Mode,
     num_demos: Option<usize>,
-    cost: defender::CostOptions,
-) -> Result<(defender::Strategy, StrategySelection)> {
-    let config = SelectionConfig { mode, num_demos, equal: false, cost, ..Default::default() };
+    cost: Option<defender::CostOptions>,
+) -> Result<(defender::Strategy, defender::Scaling, StrategySelection)> {
+    let config = SelectionConfig::for_run(mode, num_demos, cost);
     let task = demos.meta().env_id.clone().unwrap_or_else(|| demos.source().display().to_string());
     let start = Instant::now();
     let selection = run_selection(demos, None, &config, &task)
         .with_context(|| format!("strategy = \"auto\": choosing a strategy for {task}"))?;
+    let scalings: Vec<defender::Scaling> = config.costs.iter().map(|c| c.scaling).collect();
     let Some(best) = selection.best() else {
         bail!(
             "strategy = \"auto\": every strategy filters more than {}% of the held-out safe \
@@ -203,7 +210,7 @@ pub fn choose_for_run(
     };
     let record = StrategySelection {
         chosen_by: "auto".into(),
-        candidates: selection.rows.len(),
+        candidates: selection.rows.len() / scalings.len(),
         equal: config.equal,
         min_lead: config.min_lead,
         max_false_alarm: config.max_false_alarm,
@@ -215,10 +222,31 @@ pub fn choose_for_run(
         mean_lead: best.mean_lead,
         score: best.score,
         seconds: start.elapsed().as_secs_f64(),
+        scalings: if scalings.len() > 1 {
+            scalings.iter().map(ToString::to_string).collect()
+        } else {
+            Vec::new()
+        },
     };
+    if scalings.len() > 1 {
+        for &scaling in &scalings {
+            match selection.best_under(scaling) {
+                Some(r) => eprintln!(
+                    "strategy auto: best under scaling {scaling}: {} (false alarms {:.1}%, crashes prevented {:.1}%)",
+                    r.strategy,
+                    100.0 * r.false_alarm_rate,
+                    100.0 * r.crash_prevention_rate
+                ),
+                None => eprintln!(
+                    "strategy auto: no strategy within the false-alarm budget under scaling {scaling}"
+                ),
+            }
+        }
+    }
     eprintln!(
-        "strategy auto: chose {} ({mode}) of {} strategies in {:.1}s: false alarms {:.1}%, crashes prevented {:.1}%",
+        "strategy auto: chose {} ({mode}, scaling {}) of {} strategies in {:.1}s: false alarms {:.1}%, crashes prevented {:.1}%",
         best.strategy,
+        best.scaling,
         record.candidates,
         record.seconds,
         100.0 * record.false_alarm_rate,
@@ -233,5 +261,5 @@ pub fn choose_for_run(
             100.0 * record.crash_prevention_rate
         );
     }
-    Ok((best.strategy, record))
+    Ok((best.strategy, best.scaling, record))
 }
