@@ -49,7 +49,8 @@ def main() -> None:
                               dynamics={"background": args.dynamics_thread})
         if env.strategy_selection is not None:
             chosen = env.strategy_selection
-            print(f"strategy auto: {env.strategy} of {chosen['candidates']} strategies in {chosen['seconds']:.1f}s "
+            print(f"strategy auto: {env.strategy} on scaling {chosen['scaling']} of {chosen['candidates']} "
+                  f"strategies x {len(chosen['scalings']) or 1} scaling(s) in {chosen['seconds']:.1f}s "
                   f"(held-out false alarms {100 * chosen['false_alarm_rate']:.0f}%, "
                   f"crashes prevented {100 * chosen['crash_prevention_rate']:.0f}%)")
         env = Monitor(env, info_keywords=("defender_outcome",))
