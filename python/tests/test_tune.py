@@ -41,8 +41,29 @@ def actor_tensors(run: pathlib.Path) -> bytes:
 
 
 def train_processes(marker: str) -> list[int]:
-    out = subprocess.run(["pgrep", "-f", marker], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
+    """The pids of the `defender train` processes whose command line holds ``marker``, read from
+    /proc directly: quick enough to find a run that lives a fraction of a second."""
+    pids = []
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            try:
+                cmdline = open(f"/proc/{entry.name}/cmdline", "rb").read().decode(errors="replace")
+            except OSError:
+                continue
+            if "\0train\0" in cmdline and marker in cmdline:
+                pids.append(int(entry.name))
+    return pids
+
+
+def tune_has_checkpoint(sweep: pathlib.Path, strategy: str) -> bool:
+    """Whether Tune holds a checkpoint of the run with this strategy (its copy of config.toml)."""
+    for config in (sweep / ".sweep" / "tune").glob("*/*/checkpoint_*/config.toml"):
+        try:
+            if strategy in config.read_text():
+                return True
+        except OSError:
+            continue
+    return False
 
 
 def test_expand_is_the_binarys_expansion(binary, tmp_path):
@@ -64,21 +85,39 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
     killed: list[int] = []
 
     def kill_a_worker() -> None:
-        # A node failure: once the DEFENDER run has a checkpoint, kill -9 the Tune worker that
-        # runs it; the kernel then stops its `defender train` (SIGTERM), and Tune restarts the
-        # trial from its last reported checkpoint.
+        # A node failure, made deterministic however fast the machine: once the DEFENDER run has
+        # a checkpoint, freeze it (SIGSTOP) so it cannot finish first, wait until its trial has
+        # handed that checkpoint to Tune, then kill -9 the Tune worker that runs it. The kernel
+        # then signals the orphaned `defender train`: SIGTERM (PR_SET_PDEATHSIG) and, as its
+        # process group is orphaned with a stopped member, SIGHUP and SIGCONT. Two stop signals
+        # end it at once, as a process lost with its node, and Tune restarts the trial, which
+        # resumes from the last checkpoint.
         run_dir = cluster / RUNS[1]
+        manifest = run_dir / "checkpoint" / "manifest.json"
         deadline = time.time() + 240
-        while time.time() < deadline:
-            if (run_dir / "checkpoint" / "manifest.json").exists():
-                pids = train_processes(str(run_dir))
-                if pids:
-                    worker = int(open(f"/proc/{pids[0]}/stat").read().rsplit(")", 1)[1].split()[1])
-                    time.sleep(0.7)  # let the trial report that checkpoint to Tune (polls every 0.5 s)
-                    os.kill(worker, signal.SIGKILL)
-                    killed.append(worker)
-                    return
+        pid = None
+        while pid is None and time.time() < deadline:
+            pid = next(iter(train_processes(str(run_dir))), None)
+        while pid is not None and time.time() < deadline:
+            if manifest.exists():
+                try:
+                    os.kill(pid, signal.SIGSTOP)
+                except ProcessLookupError:
+                    return  # the run ended before its first checkpoint: no kill to test
+                break
+            time.sleep(0.001)
+        else:
+            return
+        worker = int(open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[1])
+        while time.time() < deadline and not tune_has_checkpoint(cluster, "MinDemoW5/MinDemoW10"):
             time.sleep(0.05)
+        time.sleep(0.7)  # and the driver has recorded it (the trial polls every 0.5 s)
+        os.kill(worker, signal.SIGKILL)
+        killed.append(worker)
+        try:
+            os.kill(pid, signal.SIGCONT)  # in case its process group is not orphaned
+        except ProcessLookupError:
+            pass
 
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
