@@ -152,6 +152,8 @@ fn output_into_a_closed_pipe_ends_quietly() {
 /// A run whose strategy `auto` chose is resumed, and later skipped as complete, under that
 /// choice: the experiment still says `auto`, the run's `config.toml` names the strategy chosen,
 /// and neither the resume nor the completeness check may read that as a changed configuration.
+/// (SAC learns from step 2000 so that the run lasts seconds, however fast the machine, and the
+/// SIGTERM finds it under way.)
 #[test]
 fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
     let root = tempfile::tempdir().unwrap();
@@ -159,7 +161,8 @@ fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
     std::fs::write(
         &experiment,
         "[grid]\nenvs = [\"InvertedDoublePendulum-v5\"]\nstrategies = [\"auto\"]\nnum_demos = [3]\nseeds = [0]\n\n\
-         [budget]\nsteps = 3000\n\n[run]\neval_freq = 1000\ncheckpoint_every_episodes = 10\n",
+         [budget]\nsteps = 3000\n\n[run]\neval_freq = 1000\ncheckpoint_every_episodes = 10\n\n\
+         [run.sac]\nlearning_starts = 2000\n",
     )
     .unwrap();
     let out = root.path().join("sweep");
