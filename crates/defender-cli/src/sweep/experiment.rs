@@ -377,6 +377,24 @@ learning_starts = 50
         assert_eq!((idp.total_steps, idp.defender.is_none()), (1000, true));
     }
 
+    /// Every experiment file the project ships expands: a file edited into nonsense is caught
+    /// here, not hours into a sweep.
+    #[test]
+    fn every_shipped_experiment_expands() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+        let mut files: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+            .collect();
+        files.sort();
+        assert!(files.len() >= 6, "{files:?}");
+        for file in files {
+            let e = load(&file).unwrap_or_else(|err| panic!("{err:#}"));
+            assert!(!e.runs.is_empty() && !e.description.is_empty(), "{}", file.display());
+        }
+    }
+
     fn refused(text: &str, expect: &[&str]) {
         let err = format!("{:#}", parse(text).unwrap_err());
         for e in expect {
