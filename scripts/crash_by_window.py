@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How a run's crash rate and evaluation return move as it trains: per window of steps, the
-episodes that ended in it, the share that crashed and that the filter ended, and the last
-evaluation return inside it. A Markdown table, one row per run directory and window.
+episodes that ended in it, the share that crashed and that the filter ended, and the
+evaluation returns inside it (their mean, and the last one). A Markdown table, one row per run directory and window.
 
     python3 scripts/crash_by_window.py results/budget-hopper/Hopper-v5/* --window 100000
 
@@ -17,8 +17,10 @@ import sys
 from pathlib import Path
 
 
-def windows(run: Path, width: int) -> list[tuple[int, int, float, float, str]]:
-    """(window start, episodes, % crashed, % filtered, last evaluation return) per window."""
+def windows(run: Path, width: int) -> list[tuple[int, int, float, float, str, str]]:
+    """(window start, episodes, % crashed, % filtered, mean and last evaluation return) per
+    window; a single evaluation is noisy (SAC on Hopper-v5 can fall from 3000 to 800 between
+    two of them), the mean over a window less so."""
     with open(run / "metrics.csv", newline="") as f:
         episodes = [(int(r["total_steps"]), r["outcome"]) for r in csv.DictReader(f)]
     evals: list[tuple[int, float]] = []
@@ -37,7 +39,8 @@ def windows(run: Path, width: int) -> list[tuple[int, int, float, float, str]]:
         crashed = 100.0 * sum(o == "crashed" for o in inside) / n if n else 0.0
         filtered = 100.0 * sum(o == "filtered" for o in inside) / n if n else 0.0
         in_window = [r for s, r in evals if start < s <= start + width]
-        rows.append((start, n, crashed, filtered, f"{in_window[-1]:.0f}" if in_window else "-"))
+        mean = f"{sum(in_window) / len(in_window):.0f}" if in_window else "-"
+        rows.append((start, n, crashed, filtered, mean, f"{in_window[-1]:.0f}" if in_window else "-"))
     return rows
 
 
@@ -53,15 +56,15 @@ def main() -> int:
     args = parser.parse_args()
     if args.window <= 0:
         parser.error(f"--window must be positive, got {args.window}")
-    print("| run | steps | episodes | % crash | % filtered | eval return (last in window) |")
-    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    print("| run | steps | episodes | % crash | % filtered | eval return: mean | last |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
     for run in args.runs:
         if not (run / "metrics.csv").exists():
             print(f"error: {run}: no metrics.csv (not a run directory)", file=sys.stderr)
             return 1
-        for start, n, crashed, filtered, ev in windows(run, args.window):
+        for start, n, crashed, filtered, mean, last in windows(run, args.window):
             span = f"{steps(start, args.window)}-{steps(start + args.window, args.window)}"
-            print(f"| {'/'.join(run.parts[-3:])} | {span} | {n} | {crashed:.1f} | {filtered:.1f} | {ev} |")
+            print(f"| {'/'.join(run.parts[-3:])} | {span} | {n} | {crashed:.1f} | {filtered:.1f} | {mean} | {last} |")
     return 0
 
 
