@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """How a run's crash rate and evaluation return move as it trains: per window of steps, the
 episodes that ended in it, the share that crashed and that the filter ended, and the
-evaluation returns inside it (their mean, and the last one). A Markdown table, one row per run directory and window.
+evaluation returns inside it (their mean, and the last one). A Markdown table, one row per run
+directory and window.
 
     python3 scripts/crash_by_window.py results/budget-hopper/Hopper-v5/* --window 100000
 

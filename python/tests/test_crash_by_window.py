@@ -25,7 +25,10 @@ def test_counts_episodes_and_evaluations_per_window(tmp_path):
         "3,190,1.0,40,crashed,0.4\n"
     )
     (d / "eval.csv").write_text(
-        "total_steps,mean_return,std_return,mean_length,episodes\n100,12.4,0,10,5\n150,20.0,0,10,5\n200,30.6,0,10,5\n"
+        "total_steps,mean_return,std_return,mean_length,episodes\n"
+        "100,12.4,0,10,5\n"
+        "150,20.0,0,10,5\n"
+        "200,30.6,0,10,5\n"
     )
     out = run(str(d), "--window", "100")
     assert out.returncode == 0, out.stderr
