@@ -4,6 +4,7 @@
 mod commands;
 #[cfg(test)]
 mod fuzz;
+mod profile;
 mod progress;
 mod resume;
 mod run_config;

@@ -9,10 +9,16 @@ use defender::selection::StrategyChoice;
 use defender_rl::{Algo, AlgoConfig, Budget};
 use serde::{Deserialize, Serialize};
 
+use crate::profile::Profile;
+
 /// The resolved configuration of a run: written to `config.toml`, readable by `--config`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunConfig {
+    /// `spec` (SPEC.md, the default) or `authors` (the authors' code; it fills every setting it
+    /// changes that the configuration leaves out: `crate::profile`).
+    #[serde(default)]
+    pub profile: Profile,
     /// Gymnasium id.
     pub env: String,
     /// `sac` or `td3`.
@@ -42,6 +48,14 @@ pub struct RunConfig {
     /// Where the training episodes are saved as an episode set, if anywhere.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub record_episodes: Option<PathBuf>,
+    /// The demonstration set a bare run's agent stores in its replay buffer
+    /// (`demos_in_replay`); `None`: the one shipped for the task. A DEFENDER run uses
+    /// `[defender] demos`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demos: Option<PathBuf>,
+    /// SHA-256 of that file, pinned when the run starts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demos_sha256: Option<String>,
     /// DEFENDER's settings; absent for a bare run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub defender: Option<DefenderSection>,
@@ -99,15 +113,28 @@ impl RunConfig {
     }
 }
 
-/// Reads a TOML run configuration, refusing unknown keys.
+/// Reads a TOML run configuration, refusing unknown keys; its profile fills what it leaves out.
 pub fn read_config(path: &Path) -> Result<RunConfig> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
+    read_config_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
 }
 
-/// Parses a run configuration from TOML text, refusing unknown keys.
+/// Parses a run configuration from TOML text, refusing unknown keys; its profile fills what it
+/// leaves out.
 pub fn read_config_str(text: &str) -> Result<RunConfig> {
-    Ok(toml::from_str(text)?)
+    let given: toml::Table = toml::from_str(text)?;
+    with_profile(&given, &given)
+}
+
+/// `table` (a configuration as written) with its profile's settings filled in where `given`
+/// (what the user wrote) leaves them out, as a configuration.
+pub fn with_profile(table: &toml::Table, given: &toml::Table) -> Result<RunConfig> {
+    let mut table = table.clone();
+    if let Some(profile) = given.get("profile") {
+        table.insert("profile".into(), profile.clone());
+    }
+    crate::profile::expand(&mut table, given)?;
+    Ok(RunConfig::deserialize(toml::Value::Table(table))?)
 }
 
 impl RunConfig {
@@ -155,26 +182,72 @@ pub struct DefenderSection {
 }
 
 /// `[defender.cost]` as a configuration gives it. `scaling` left out is SPEC section 2's plain
-/// DTW for a given strategy, and for `strategy = "auto"` a choice between plain and z-scored DTW
-/// made with the strategy's (docs/decisions.md, "z-scored DTW"); a started run's `config.toml`
-/// always holds the scaling used.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// DTW for a given strategy, and for `strategy = "auto"` under SPEC's cost a choice between plain
+/// and z-scored DTW made with the strategy's (docs/decisions.md, "z-scored DTW"); a started run's
+/// `config.toml` always holds the scaling used, and every other option, default or not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CostSection {
     /// `none` (plain DTW) or `zscore`; absent: see above.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scaling: Option<defender::Scaling>,
+    /// `exact` (SPEC section 2) or `fastdtw` (the authors' code).
+    #[serde(default)]
+    pub dtw: defender::DtwKind,
+    /// FastDTW's radius.
+    #[serde(default = "default_radius")]
+    pub radius: usize,
+    /// `l2` (SPEC section 2) or `l1` (the `fastdtw` package's default).
+    #[serde(default)]
+    pub metric: defender::Metric,
+    /// Align only the last N trajectory elements; absent: the whole trajectory (SPEC).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory_cap: Option<usize>,
+    /// `spec` (state mode: the final observation included) or `per-transition`.
+    #[serde(default)]
+    pub elements: defender::Elements,
+    /// `filter` (SPEC section 4) or `execute` (the authors' code).
+    #[serde(default)]
+    pub ties: defender::Ties,
+}
+
+fn default_radius() -> usize {
+    defender::CostOptions::default().radius
+}
+
+impl Default for CostSection {
+    fn default() -> Self {
+        Self::from_options(defender::CostOptions::default(), None)
+    }
 }
 
 impl CostSection {
-    /// The method's cost options: an absent scaling is plain DTW.
-    pub fn options(self) -> defender::CostOptions {
-        defender::CostOptions { scaling: self.scaling.unwrap_or_default() }
+    /// The section of `options`, with the scaling given or left to `auto`.
+    pub fn from_options(options: defender::CostOptions, scaling: Option<defender::Scaling>) -> Self {
+        let defender::CostOptions { scaling: _, dtw, radius, metric, trajectory_cap, elements, ties } = options;
+        Self { scaling, dtw, radius, metric, trajectory_cap, elements, ties }
     }
 
-    /// The cost the configuration fixes, if it fixes one.
+    /// The method's cost options: an absent scaling is plain DTW.
+    pub fn options(self) -> defender::CostOptions {
+        let Self { scaling, dtw, radius, metric, trajectory_cap, elements, ties } = self;
+        defender::CostOptions {
+            scaling: scaling.unwrap_or_default(),
+            dtw,
+            radius,
+            metric,
+            trajectory_cap,
+            elements,
+            ties,
+        }
+    }
+
+    /// The cost the configuration fixes, if it fixes one: `None` only for SPEC's cost with the
+    /// scaling left out, where `strategy = "auto"` compares plain and z-scored DTW. Under any
+    /// other option an absent scaling is plain DTW.
     pub fn given(self) -> Option<defender::CostOptions> {
-        self.scaling.map(|scaling| defender::CostOptions { scaling })
+        let spec = Self { scaling: self.scaling, ..Self::default() };
+        (self.scaling.is_some() || self != spec).then(|| self.options())
     }
 }
 
@@ -261,7 +334,17 @@ mod tests {
             .filter(|(k, _)| !before.iter().any(|(b, _)| b == k))
             .map(|(k, _)| k.as_str())
             .collect();
-        assert_eq!(added, ["checkpoint_every_seconds"]);
+        assert_eq!(
+            added,
+            [
+                "checkpoint_every_seconds",
+                "defender.cost.dtw",
+                "defender.cost.elements",
+                "defender.cost.metric",
+                "defender.cost.radius",
+                "defender.cost.ties"
+            ]
+        );
         // And it reads back as itself (the pinned copy in a checkpoint is this text).
         let again = read_config_str(&text).unwrap();
         assert_eq!(toml::to_string_pretty(&again).unwrap(), text);

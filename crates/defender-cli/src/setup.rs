@@ -7,12 +7,12 @@ use anyhow::{Context, Result, bail};
 use defender::selection::StrategyChoice;
 use defender::{DefenderEnv, EpisodeRecorder, EpisodeSet, Meta};
 use defender_rl::{
-    Agent, AlgoConfig, Env, EpisodeRecord, Outcome, Parallelism, SeedPurpose, Transition, derive_seed,
+    Agent, Env, EpisodeRecord, Outcome, Parallelism, SeedPurpose, Transition, derive_seed,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::run_config::DefenderSection;
+use crate::run_config::{DefenderSection, RunConfig};
 
 /// Where the demonstration set shipped for `env_id` lives: `data/demos/<ENV>.npz` in the source
 /// tree the binary was built from (or `$DEFENDER_DATA/demos/<ENV>.npz`).
@@ -39,6 +39,8 @@ pub struct Built {
     pub defender: Option<DefenderSection>,
     /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
     pub dynamics: Option<defender::DynamicsHandle>,
+    /// A bare run's demonstration file stored in the agent's buffer, and its SHA-256.
+    pub replay_demos: Option<(PathBuf, String)>,
 }
 
 /// Whether a run trains DEFENDER's dynamics model on a thread of its own: when its configuration
@@ -53,15 +55,30 @@ pub fn model_on_own_thread(requested: bool, networks: Parallelism) -> bool {
 }
 
 /// Builds the agent and the environments of a run, and returns with them the `[defender]` section
-/// as resolved, so that `config.toml` records what was used.
-pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&DefenderSection>) -> Result<Built> {
+/// as resolved, so that `config.toml` records what was used. An agent with `demos_in_replay`
+/// gets every transition of the run's demonstration set in its buffer first.
+pub fn build(config: &RunConfig) -> Result<Built> {
+    let (env_id, seed) = (config.env.as_str(), config.seed);
+    let algo = config.algo_config();
     let task = defender_mujoco::make(env_id)?;
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
+    let action_space = task.action_space().clone();
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
-    let agent = algo.build(obs_dim, act_dim, seed)?;
-    let Some(section) = section else {
-        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None });
+    let mut agent = algo.build(obs_dim, act_dim, seed)?;
+    let Some(section) = config.defender.as_ref() else {
+        let mut replay_demos = None;
+        if algo.demos_in_replay() {
+            let path = config.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
+            let (demos, sha256) = load_pinned(&path, config.demos_sha256.as_deref())?;
+            demos.check_env(env_id, obs_dim, act_dim)?;
+            preload(&mut *agent, &demos, &action_space)?;
+            replay_demos = Some((path, sha256));
+        }
+        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None, replay_demos });
     };
+    if config.demos.is_some() {
+        bail!("a DEFENDER run takes its demonstrations from [defender] demos, not the top-level `demos` key");
+    }
     let mut section = section.clone();
     let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
     if !path.exists() && section.demos.is_none() {
@@ -106,7 +123,59 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
     let dynamics = Some(wrapped.dynamics_handle());
-    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section), dynamics })
+    if algo.demos_in_replay() {
+        preload(&mut *agent, &demos, &action_space)?;
+    }
+    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section), dynamics, replay_demos: None })
+}
+
+/// A demonstration file and its SHA-256, refused if `pinned` names another content.
+fn load_pinned(path: &Path, pinned: Option<&str>) -> Result<(EpisodeSet, String)> {
+    let sha256 = file_sha256(path)?;
+    if let Some(pinned) = pinned
+        && pinned != sha256
+    {
+        bail!(
+            "{}: the demonstrations changed since the run was configured (SHA-256 {sha256}, the \
+             configuration pins {pinned}); restore the file, or start a new run",
+            path.display()
+        );
+    }
+    Ok((EpisodeSet::load(path)?, sha256))
+}
+
+/// Every transition of every demonstration of `set` into the agent's replay buffer (the
+/// authors' `demos_in_replay`), actions normalised to [-1, 1] as the trainer stores them. The
+/// last transition of a crashed demonstration is terminal, that of a safe one a time-limit cut;
+/// a safe demonstration's transitions are marked for behaviour cloning.
+fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpace) -> Result<()> {
+    let mut action = vec![0.0f32; space.dim()];
+    let mut obs = Vec::new();
+    let mut next = Vec::new();
+    for episode in set.episodes() {
+        for t in 0..episode.len() {
+            obs.clear();
+            obs.extend(episode.observation(t).iter().map(|&v| f64::from(v)));
+            next.clear();
+            next.extend(episode.observation(t + 1).iter().map(|&v| f64::from(v)));
+            for ((a, &raw), (&low, &high)) in
+                action.iter_mut().zip(episode.action(t)).zip(space.low().iter().zip(space.high()))
+            {
+                *a = (2.0 * (f64::from(raw) - low) / (high - low) - 1.0) as f32;
+            }
+            let last = t + 1 == episode.len();
+            let transition = Transition {
+                obs: &obs,
+                action: &action,
+                reward: f64::from(episode.rew[t]),
+                next_obs: &next,
+                terminated: last && episode.crashed,
+                truncated: last && !episode.crashed,
+            };
+            agent.store_demonstration(&transition, !episode.crashed)?;
+        }
+    }
+    Ok(())
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

@@ -57,7 +57,7 @@ pub(crate) fn parse_cost(scaling: &str) -> PyResult<CostOptions> {
             "scaling: unknown '{scaling}'; expected 'none' (plain DTW) or 'zscore'"
         ))
     })?;
-    Ok(CostOptions { scaling })
+    Ok(CostOptions::with_scaling(scaling))
 }
 
 /// `d[key]`, or an error naming `what` and the missing key.

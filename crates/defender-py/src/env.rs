@@ -275,7 +275,7 @@ impl Core {
                 StrategyChoice::Fixed(s) => (s, given_cost.unwrap_or_default(), None),
                 StrategyChoice::Auto => {
                     let auto = choose_auto(py, &demos, mode, num_demos, given_cost)?;
-                    (auto.best.strategy, CostOptions { scaling: auto.best.scaling }, Some(auto))
+                    (auto.best.strategy, CostOptions { scaling: auto.best.scaling, ..given_cost.unwrap_or_default() }, Some(auto))
                 }
             };
             let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, dynamics };

@@ -56,6 +56,13 @@ pub trait Agent {
     /// A vector has the wrong length or a non-finite value.
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError>;
 
+    /// Stores a demonstration's transition in the replay buffer before training, without
+    /// counting a step; `bc` marks a safe demonstration's for a behaviour-cloning term.
+    ///
+    /// # Errors
+    /// A vector has the wrong length or a non-finite value.
+    fn store_demonstration(&mut self, transition: &Transition<'_>, bc: bool) -> Result<(), RlError>;
+
     /// Runs the gradient steps the schedule asks for after the last observed step, if any.
     ///
     /// # Errors
@@ -100,6 +107,9 @@ impl<A: Agent + ?Sized> Agent for Box<A> {
     }
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
         (**self).observe(transition)
+    }
+    fn store_demonstration(&mut self, transition: &Transition<'_>, bc: bool) -> Result<(), RlError> {
+        (**self).store_demonstration(transition, bc)
     }
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
         (**self).update()

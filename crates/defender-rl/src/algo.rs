@@ -84,6 +84,14 @@ impl AlgoConfig {
         }
     }
 
+    /// Whether the agent stores the run's demonstrations in its replay buffer before training.
+    pub fn demos_in_replay(&self) -> bool {
+        match self {
+            Self::Sac(c) => c.demos_in_replay,
+            Self::Td3(c) => c.demos_in_replay,
+        }
+    }
+
     /// Builds the agent for observations of `obs_dim` and actions of `act_dim` values, seeded
     /// from the run's `seed`.
     ///

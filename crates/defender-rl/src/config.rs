@@ -84,6 +84,18 @@ impl From<EntCoef> for EntCoefRepr {
     }
 }
 
+/// How the behaviour-cloning term of SAC's actor loss weighs a batch (`bc_form`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BcForm {
+    /// Only the demonstration rows: `mean_i(bc_i * mean_j (a~_ij - a_ij)^2)` over the batch.
+    #[default]
+    PerRow,
+    /// The authors' code: the action MSE of the whole batch (every row, the agent's own
+    /// transitions too) times the share of demonstration rows, `mean(bc) * mse(a~, a)`.
+    Authors,
+}
+
 /// Soft Actor-Critic hyperparameters (SB3 `SAC` names and defaults, except `learning_starts`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -110,6 +122,21 @@ pub struct SacConfig {
     pub ent_coef: EntCoef,
     /// Hidden layer widths of the actor and of each critic (ReLU).
     pub net_arch: Vec<usize>,
+    /// Uniformly random actions before `learning_starts` (SB3). `false`: the policy acts from
+    /// the first step, and learning starts once the buffer holds a batch (and more than
+    /// `learning_starts` steps were taken): the authors' code.
+    pub warmup: bool,
+    /// Store an episode cut by the time limit as terminal (no bootstrap), as the authors' code
+    /// does; `false` bootstraps it (SB3, CleanRL).
+    pub terminal_on_truncation: bool,
+    /// Before training, every transition of the run's demonstration set goes into the replay
+    /// buffer (the authors' code), those of safe demonstrations marked for behaviour cloning.
+    pub demos_in_replay: bool,
+    /// Weight of the behaviour-cloning term of the actor loss (0: none; the authors' code: 1).
+    /// Needs `demos_in_replay`.
+    pub bc_weight: f64,
+    /// How the behaviour-cloning term weighs a batch.
+    pub bc_form: BcForm,
 }
 
 impl Default for SacConfig {
@@ -126,6 +153,11 @@ impl Default for SacConfig {
             target_update_interval: 1,
             ent_coef: EntCoef::default(),
             net_arch: vec![256, 256],
+            warmup: true,
+            terminal_on_truncation: false,
+            demos_in_replay: false,
+            bc_weight: 0.0,
+            bc_form: BcForm::default(),
         }
     }
 }
@@ -162,6 +194,15 @@ pub struct Td3Config {
     pub exploration_noise: f64,
     /// Hidden layer widths of the actor and of each critic (ReLU).
     pub net_arch: Vec<usize>,
+    /// Uniformly random actions before `learning_starts`; `false`: the policy (with its
+    /// exploration noise) acts from the first step and learning starts once the buffer holds a
+    /// batch (as [`SacConfig::warmup`]).
+    pub warmup: bool,
+    /// Store an episode cut by the time limit as terminal (as [`SacConfig::terminal_on_truncation`]).
+    pub terminal_on_truncation: bool,
+    /// Demonstrations in the replay buffer before training (as [`SacConfig::demos_in_replay`];
+    /// TD3 has no behaviour-cloning term, as in the authors' code).
+    pub demos_in_replay: bool,
 }
 
 impl Default for Td3Config {
@@ -180,6 +221,9 @@ impl Default for Td3Config {
             target_noise_clip: 0.5,
             exploration_noise: 0.1,
             net_arch: vec![256, 256],
+            warmup: true,
+            terminal_on_truncation: false,
+            demos_in_replay: false,
         }
     }
 }
@@ -273,7 +317,18 @@ impl SacConfig {
                 Err(bad("ent_coef.target_entropy", t, "a finite number"))
             }
             _ => Ok(()),
+        }?;
+        if !(s.bc_weight.is_finite() && s.bc_weight >= 0.0) {
+            return Err(bad("bc_weight", s.bc_weight, "a finite number >= 0"));
         }
+        if s.bc_weight > 0.0 && !s.demos_in_replay {
+            return Err(bad(
+                "bc_weight",
+                s.bc_weight,
+                "0 unless demos_in_replay = true (behaviour cloning needs demonstrations in the buffer)",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -347,6 +402,17 @@ mod tests {
     fn validation_names_the_field() {
         let c = SacConfig { tau: 1.5, ..SacConfig::default() };
         assert!(matches!(c.validate(), Err(RlError::Config { field: "tau", .. })));
+        let c = SacConfig { bc_weight: 1.0, ..SacConfig::default() };
+        assert!(matches!(c.validate(), Err(RlError::Config { field: "bc_weight", .. })));
+        let c = SacConfig { bc_weight: 1.0, demos_in_replay: true, ..SacConfig::default() };
+        assert!(c.validate().is_ok());
+        let c = SacConfig { bc_weight: f64::NAN, demos_in_replay: true, ..SacConfig::default() };
+        assert!(matches!(c.validate(), Err(RlError::Config { field: "bc_weight", .. })));
+        // TD3 has no behaviour-cloning term: the key is refused by name.
+        let err = toml::from_str::<Td3Config>("bc_weight = 1.0").unwrap_err().to_string();
+        assert!(err.contains("bc_weight"), "{err}");
+        let c: SacConfig = toml::from_str("bc_form = \"authors\"").unwrap();
+        assert_eq!(c.bc_form, BcForm::Authors);
         let c = Td3Config { net_arch: vec![], ..Td3Config::default() };
         assert!(matches!(c.validate(), Err(RlError::Config { field: "net_arch", .. })));
         assert!(SacConfig::default().validate().is_ok() && Td3Config::default().validate().is_ok());

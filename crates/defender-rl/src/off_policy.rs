@@ -24,11 +24,23 @@ impl Experience {
         Self { buffer, num_timesteps: 0 }
     }
 
-    /// Stores one transition and counts the step.
-    pub(crate) fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
-        self.buffer.push(transition)?;
+    /// Stores one transition and counts the step; `terminal_on_truncation` stores a time-limit
+    /// cut as terminal (the authors' code).
+    pub(crate) fn observe(&mut self, transition: &Transition<'_>, terminal_on_truncation: bool) -> Result<(), RlError> {
+        self.buffer.push(&as_stored(transition, terminal_on_truncation))?;
         self.num_timesteps += 1;
         Ok(())
+    }
+
+    /// Stores a demonstration's transition without counting a step (`bc`: a safe
+    /// demonstration's, for behaviour cloning).
+    pub(crate) fn store_demonstration(
+        &mut self,
+        transition: &Transition<'_>,
+        bc: bool,
+        terminal_on_truncation: bool,
+    ) -> Result<(), RlError> {
+        self.buffer.push_demonstration(&as_stored(transition, terminal_on_truncation), bc)
     }
 
     /// Still in the warm-up, where actions are uniform over the action space (SB3 samples the
@@ -38,13 +50,20 @@ impl Experience {
     }
 }
 
+/// The transition as the buffer keeps it: a time-limit cut becomes terminal if asked.
+fn as_stored<'a>(t: &Transition<'a>, terminal_on_truncation: bool) -> Transition<'a> {
+    Transition { terminated: t.terminated || (terminal_on_truncation && t.truncated), ..*t }
+}
+
 /// SB3's training schedule: after every `train_freq` environment steps, once more than
-/// `learning_starts` were taken, `gradient_steps` gradient steps.
+/// `learning_starts` were taken, `gradient_steps` gradient steps. Without a warm-up, also not
+/// before the buffer holds `min_buffer` transitions (a batch: the authors' rule).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Schedule {
     pub(crate) learning_starts: u64,
     pub(crate) train_freq: u64,
     pub(crate) gradient_steps: u64,
+    pub(crate) min_buffer: usize,
 }
 
 impl Schedule {
@@ -53,9 +72,13 @@ impl Schedule {
     pub(crate) fn run(
         self,
         num_timesteps: u64,
+        buffer_len: usize,
         mut step: impl FnMut() -> Result<UpdateStats, RlError>,
     ) -> Result<Option<UpdateStats>, RlError> {
-        if num_timesteps <= self.learning_starts || !num_timesteps.is_multiple_of(self.train_freq) {
+        if num_timesteps <= self.learning_starts
+            || !num_timesteps.is_multiple_of(self.train_freq)
+            || buffer_len < self.min_buffer
+        {
             return Ok(None);
         }
         let mut last = None;
@@ -108,18 +131,23 @@ mod tests {
 
     #[test]
     fn the_schedule_waits_for_learning_starts_and_every_train_freq_steps() {
-        let schedule = Schedule { learning_starts: 10, train_freq: 4, gradient_steps: 2 };
+        let schedule = Schedule { learning_starts: 10, train_freq: 4, gradient_steps: 2, min_buffer: 0 };
         let mut calls = 0;
         let mut step = || {
             calls += 1;
             Ok(UpdateStats { n_updates: calls, ..UpdateStats::default() })
         };
         for n in [0, 4, 8, 10] {
-            assert_eq!(schedule.run(n, &mut step).unwrap(), None, "step {n}");
+            assert_eq!(schedule.run(n, 100, &mut step).unwrap(), None, "step {n}");
         }
-        assert_eq!(schedule.run(11, &mut step).unwrap(), None, "not a multiple of train_freq");
-        assert_eq!(schedule.run(12, &mut step).unwrap().map(|s| s.n_updates), Some(2));
+        assert_eq!(schedule.run(11, 100, &mut step).unwrap(), None, "not a multiple of train_freq");
+        assert_eq!(schedule.run(12, 100, &mut step).unwrap().map(|s| s.n_updates), Some(2));
         assert_eq!(calls, 2);
+        // Without a warm-up, not before the buffer holds a batch.
+        let schedule = Schedule { learning_starts: 0, train_freq: 1, gradient_steps: 1, min_buffer: 8 };
+        let mut step = || Ok(UpdateStats::default());
+        assert_eq!(schedule.run(3, 7, &mut step).unwrap(), None);
+        assert!(schedule.run(4, 8, &mut step).unwrap().is_some());
     }
 
     #[test]

@@ -46,6 +46,9 @@ pub struct Batch {
     pub next_obs: Vec<f32>,
     /// 1.0 where the transition terminated (no bootstrap), else 0.0, `size`.
     pub terminated: Vec<f32>,
+    /// 1.0 where the row is a transition of a safe demonstration stored for behaviour cloning
+    /// ([`ReplayBuffer::push_demonstration`]), else 0.0, `size`.
+    pub bc: Vec<f32>,
 }
 
 impl Batch {
@@ -58,6 +61,7 @@ impl Batch {
             rewards: vec![0.0; size],
             next_obs: vec![0.0; size * obs_dim],
             terminated: vec![0.0; size],
+            bc: vec![0.0; size],
         }
     }
 }
@@ -76,6 +80,9 @@ pub struct ReplayBuffer {
     rewards: Vec<f32>,
     terminated: Vec<bool>,
     truncated: Vec<bool>,
+    /// The transition belongs to a safe demonstration to clone (saved as bit 2 of the flags, so
+    /// files written before it existed read as no demonstrations).
+    bc: Vec<bool>,
 }
 
 /// Magic and version at the head of a saved buffer.
@@ -117,6 +124,7 @@ impl ReplayBuffer {
             rewards: floats(Some(capacity), "the rewards")?,
             terminated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
             truncated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
+            bc: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
         })
     }
 
@@ -150,6 +158,24 @@ impl ReplayBuffer {
     /// # Errors
     /// A vector has the wrong length or a non-finite value.
     pub fn push(&mut self, t: &Transition<'_>) -> Result<(), RlError> {
+        self.push_flagged(t, false)
+    }
+
+    /// Stores a demonstration's transition; `bc`: a behaviour-cloning term may pull the policy
+    /// towards its action (a safe demonstration's).
+    ///
+    /// # Errors
+    /// As [`ReplayBuffer::push`].
+    pub fn push_demonstration(&mut self, t: &Transition<'_>, bc: bool) -> Result<(), RlError> {
+        self.push_flagged(t, bc)
+    }
+
+    /// Transitions stored with the behaviour-cloning flag.
+    pub fn bc_count(&self) -> usize {
+        self.bc[..self.len()].iter().filter(|&&b| b).count()
+    }
+
+    fn push_flagged(&mut self, t: &Transition<'_>, bc: bool) -> Result<(), RlError> {
         check_vector("replay obs", t.obs, self.obs_dim)?;
         check_vector("replay next_obs", t.next_obs, self.obs_dim)?;
         if t.action.len() != self.act_dim {
@@ -171,6 +197,7 @@ impl ReplayBuffer {
         self.rewards[self.pos] = t.reward as f32;
         self.terminated[self.pos] = t.terminated;
         self.truncated[self.pos] = t.truncated;
+        self.bc[self.pos] = bc;
         self.pos += 1;
         if self.pos == self.capacity {
             self.full = true;
@@ -208,6 +235,7 @@ impl ReplayBuffer {
             batch.rewards[row] = self.rewards[i];
             // Only `terminated` masks the bootstrap; `truncated` transitions bootstrap as usual.
             batch.terminated[row] = if self.terminated[i] { 1.0 } else { 0.0 };
+            batch.bc[row] = if self.bc[i] { 1.0 } else { 0.0 };
         }
         Ok(())
     }
@@ -235,8 +263,11 @@ impl ReplayBuffer {
         for v in &self.rewards[..n] {
             write(&v.to_le_bytes())?;
         }
-        let flags: Vec<u8> =
-            (0..n).map(|i| u8::from(self.terminated[i]) | (u8::from(self.truncated[i]) << 1)).collect();
+        let flags: Vec<u8> = (0..n)
+            .map(|i| {
+                u8::from(self.terminated[i]) | (u8::from(self.truncated[i]) << 1) | (u8::from(self.bc[i]) << 2)
+            })
+            .collect();
         write(&flags)?;
         w.flush().map_err(|e| RlError::io(path, e))
     }
@@ -294,6 +325,7 @@ impl ReplayBuffer {
         for (i, f) in flags.iter().enumerate() {
             self.terminated[i] = f & 1 != 0;
             self.truncated[i] = f & 2 != 0;
+            self.bc[i] = f & 4 != 0;
         }
         self.pos = pos;
         self.full = full == 1;
@@ -386,6 +418,11 @@ mod tests {
         assert_eq!(back.rewards, buf.rewards);
         assert_eq!(back.terminated, buf.terminated);
         assert_eq!(back.truncated, buf.truncated);
+        // Demonstrations keep their flag through a save.
+        buf.push_demonstration(&t(&[9.0, 9.0], &[0.5], &[9.0, 9.0], false), true).unwrap();
+        buf.save(&path).unwrap();
+        back.load(&path).unwrap();
+        assert_eq!((back.bc_count(), &back.bc), (1, &buf.bc));
         let mut other = ReplayBuffer::new(5, 2, 1).unwrap();
         assert!(matches!(other.load(&path), Err(RlError::Checkpoint { .. })));
     }

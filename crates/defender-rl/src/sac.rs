@@ -12,8 +12,14 @@
 //! alpha step on  -log_alpha (logp + target_entropy)
 //! critic step on 0.5 sum_i mean (Q_i(s, a) - y)^2
 //! actor step on  mean(alpha logp - min_i Q_i(s, a~))        (through the updated critics)
+//!                + bc_weight * BC(a~, a)                    (0 unless demonstrations are cloned)
 //! Qt_i <- tau Q_i + (1 - tau) Qt_i
 //! ```
+//!
+//! The behaviour-cloning term is the authors' addition for DEFENDER's agent (docs/SPEC.md,
+//! "The authors' profile"): the squared error between the fresh policy action `a~` and the
+//! replayed action `a`, on the rows of safe demonstrations (`bc_form = "per-row"`), or, as
+//! their code computes it, on every row times the share of demonstration rows (`"authors"`).
 
 use std::path::Path;
 
@@ -25,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, write_json};
-use crate::config::{EntCoef, SacConfig};
+use crate::config::{BcForm, EntCoef, SacConfig};
 use crate::critics::TwinCritics;
 use crate::error::RlError;
 use crate::nets::{
@@ -213,6 +219,7 @@ impl Sac {
             learning_starts: c.learning_starts,
             train_freq: c.train_freq,
             gradient_steps: c.gradient_steps,
+            min_buffer: if c.warmup { 0 } else { c.batch_size },
         }
     }
 
@@ -283,6 +290,7 @@ impl Sac {
                 ws.dact[i * a + j] += d2[i * (o + a) + o + j];
             }
         }
+        actor_loss += Self::behaviour_cloning(ws, &self.config, b, a);
         // Back through a~ = tanh(u), u = mean + std eps, and log pi:
         //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
         //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
@@ -302,6 +310,35 @@ impl Sac {
         self.actor.zero_grad();
         self.actor.backward_params(rows(&ws.grad_actor, b, 2 * a));
         actor_loss
+    }
+
+    /// Adds the behaviour-cloning term's gradient `d/da~` to `ws.dact` and returns the term
+    /// (0 when `bc_weight` is 0). Per row `i` and action dimension `j`, with `e = a~_ij - a_ij`:
+    /// per-row `w bc_i e^2 / (b a)`; the authors' `w mean(bc) e^2 / (b a)` on every row.
+    fn behaviour_cloning(ws: &mut Workspace, config: &SacConfig, b: usize, a: usize) -> f32 {
+        let w = config.bc_weight as f32;
+        if w == 0.0 {
+            return 0.0;
+        }
+        let share = ws.batch.bc.iter().sum::<f32>() / b as f32;
+        let scale = w / (b * a) as f32;
+        let mut loss = 0.0f32;
+        for i in 0..b {
+            let row_weight = match config.bc_form {
+                BcForm::PerRow => ws.batch.bc[i],
+                BcForm::Authors => share,
+            };
+            if row_weight == 0.0 {
+                continue;
+            }
+            for j in 0..a {
+                let k = i * a + j;
+                let e = ws.pi_act[k] - ws.batch.actions[k];
+                loss += scale * row_weight * e * e;
+                ws.dact[k] += scale * row_weight * 2.0 * e;
+            }
+        }
+        loss
     }
 
     /// One gradient step on a fresh batch.
@@ -401,7 +438,7 @@ impl Agent for Sac {
         let a = self.act_dim;
         check_action_len(action, a)?;
         obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.experience.warming_up(self.config.learning_starts) {
+        if !deterministic && self.config.warmup && self.experience.warming_up(self.config.learning_starts) {
             uniform_action(&mut self.rng, action);
             return Ok(());
         }
@@ -420,11 +457,16 @@ impl Agent for Sac {
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
-        self.experience.observe(transition)
+        self.experience.observe(transition, self.config.terminal_on_truncation)
+    }
+
+    fn store_demonstration(&mut self, transition: &Transition<'_>, bc: bool) -> Result<(), RlError> {
+        self.experience.store_demonstration(transition, bc, self.config.terminal_on_truncation)
     }
 
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
-        self.schedule().run(self.experience.num_timesteps, || self.gradient_step())
+        let buffer_len = self.experience.buffer.len();
+        self.schedule().run(self.experience.num_timesteps, buffer_len, || self.gradient_step())
     }
 
     fn save(&self, dir: &Path) -> Result<(), RlError> {
@@ -472,17 +514,17 @@ mod tests {
 
     /// A small agent with a filled buffer and a sampled batch.
     fn small(alpha: f32) -> Sac {
-        let config = SacConfig {
-            net_arch: vec![16, 16],
-            batch_size: 8,
-            buffer_size: 100,
-            learning_starts: 0,
-            ent_coef: EntCoef::Fixed(alpha),
-            ..SacConfig::default()
-        };
+        small_with(SacConfig { ent_coef: EntCoef::Fixed(alpha), ..SacConfig::default() })
+    }
+
+    /// As [`small`] with `config`'s algorithm settings; every third transition is a safe
+    /// demonstration's.
+    fn small_with(config: SacConfig) -> Sac {
+        let config =
+            SacConfig { net_arch: vec![16, 16], batch_size: 8, buffer_size: 100, learning_starts: 0, ..config };
         let mut sac = Sac::new(config, 3, 2, 5).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        for _ in 0..40 {
+        for k in 0..40 {
             let obs: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
             let next: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
             let act: Vec<f32> = (0..2).map(|_| rng.random_range(-1.0..1.0)).collect();
@@ -494,7 +536,11 @@ mod tests {
                 terminated: false,
                 truncated: false,
             };
-            sac.observe(&t).unwrap();
+            if k % 3 == 0 {
+                sac.store_demonstration(&t, true).unwrap();
+            } else {
+                sac.observe(&t).unwrap();
+            }
         }
         sac.experience.buffer.sample_into(&mut sac.rng, &mut sac.ws.batch).unwrap();
         sac
@@ -511,8 +557,44 @@ mod tests {
 
     #[test]
     fn actor_gradient_matches_finite_differences() {
-        let alpha = 0.3;
-        let mut sac = small(alpha);
+        check_actor_gradient(small(0.3), 0.3);
+    }
+
+    #[test]
+    fn the_behaviour_cloning_gradient_matches_finite_differences_in_both_forms() {
+        for bc_form in [BcForm::PerRow, BcForm::Authors] {
+            let config = SacConfig {
+                ent_coef: EntCoef::Fixed(0.3),
+                demos_in_replay: true,
+                bc_weight: 2.0,
+                bc_form,
+                ..SacConfig::default()
+            };
+            let sac = small_with(config);
+            let share = sac.ws.batch.bc.iter().sum::<f32>();
+            assert!(share > 0.0 && share < 8.0, "the batch must mix demonstration rows and others");
+            check_actor_gradient(sac, 0.3);
+        }
+    }
+
+    #[test]
+    fn the_two_forms_weigh_the_batch_as_documented() {
+        let mut ws = Workspace::new(2, 1, 1);
+        ws.pi_act.copy_from_slice(&[0.5, 0.0]);
+        ws.batch.actions.copy_from_slice(&[0.0, 1.0]);
+        ws.batch.bc.copy_from_slice(&[1.0, 0.0]);
+        let mut c = SacConfig { bc_weight: 1.0, demos_in_replay: true, ..SacConfig::default() };
+        // Per row: only row 0, (0.5^2) / (2 rows * 1 dim).
+        assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.125).abs() < 1e-7);
+        c.bc_form = BcForm::Authors;
+        ws.dact.fill(0.0);
+        // Authors: mean(bc) = 0.5 times the MSE of both rows, (0.25 + 1) / 2.
+        assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.3125).abs() < 1e-7);
+        assert!((ws.dact[1] - 0.5 * 2.0 * -1.0 / 2.0).abs() < 1e-7, "{:?}", ws.dact);
+    }
+
+    /// The actor's analytic gradient against central finite differences of its loss.
+    fn check_actor_gradient(mut sac: Sac, alpha: f32) {
         let rng = sac.rng.clone();
         loss(&mut sac, &rng, alpha);
         let analytic = sac.actor.grads().to_vec();

@@ -148,6 +148,7 @@ impl Td3 {
             learning_starts: c.learning_starts,
             train_freq: c.train_freq,
             gradient_steps: c.gradient_steps,
+            min_buffer: if c.warmup { 0 } else { c.batch_size },
         }
     }
 
@@ -252,7 +253,7 @@ impl Agent for Td3 {
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         check_action_len(action, self.act_dim)?;
         obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.experience.warming_up(self.config.learning_starts) {
+        if !deterministic && self.config.warmup && self.experience.warming_up(self.config.learning_starts) {
             uniform_action(&mut self.rng, action);
             return Ok(());
         }
@@ -268,11 +269,16 @@ impl Agent for Td3 {
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
-        self.experience.observe(transition)
+        self.experience.observe(transition, self.config.terminal_on_truncation)
+    }
+
+    fn store_demonstration(&mut self, transition: &Transition<'_>, bc: bool) -> Result<(), RlError> {
+        self.experience.store_demonstration(transition, bc, self.config.terminal_on_truncation)
     }
 
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
-        self.schedule().run(self.experience.num_timesteps, || self.gradient_step())
+        let buffer_len = self.experience.buffer.len();
+        self.schedule().run(self.experience.num_timesteps, buffer_len, || self.gradient_step())
     }
 
     fn save(&self, dir: &Path) -> Result<(), RlError> {

@@ -11,8 +11,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use defender_dtw::Stream;
-
+use crate::cost_stream::CostStream;
 use crate::demonstrations::Demonstrations;
 use crate::episode_set::{Episode, EpisodeSet};
 use crate::error::{DefenderError, Result};
@@ -106,12 +105,8 @@ impl Ablation {
         self.demos.mode()
     }
 
-    fn streams(&self) -> Result<(Stream, Stream)> {
-        let views = |ws: &[Window]| ws.iter().map(|w| w.view()).collect::<Vec<_>>();
-        Ok((
-            self.demos.safe().stream(&views(&self.safe_windows))?,
-            self.demos.unsafe_().stream(&views(&self.unsafe_windows))?,
-        ))
+    fn streams(&self) -> Result<(CostStream, CostStream)> {
+        Ok((self.demos.cost_stream(false, &self.safe_windows)?, self.demos.cost_stream(true, &self.unsafe_windows)?))
     }
 
     /// Replays one recorded episode under every strategy (SPEC section 7).
@@ -127,8 +122,8 @@ impl Ablation {
         &self,
         episode: Episode<'_>,
         held_out: Option<HeldOut>,
-        safe: &mut Stream,
-        unsafe_: &mut Stream,
+        safe: &mut CostStream,
+        unsafe_: &mut CostStream,
         element: &mut Vec<f32>,
     ) -> Result<EpisodeReplay> {
         if episode.obs_dim != self.demos.obs_dim() || episode.act_dim != self.demos.act_dim() {
@@ -143,6 +138,7 @@ impl Ablation {
         }
         safe.reset();
         unsafe_.reset();
+        let ties = self.demos.options().ties;
         let mut first: Vec<Option<usize>> = vec![None; self.strategies.len()];
         let mut open = first.len();
         let mut safe_values = vec![f64::NAN; self.safe_windows.len() * 3];
@@ -161,7 +157,7 @@ impl Ablation {
                 }
             }
             for (k, &(s, u)) in first.iter_mut().zip(&self.pairs) {
-                if k.is_none() && Decision::new(safe_values[s], unsafe_values[u]).filtered {
+                if k.is_none() && Decision::with_ties(safe_values[s], unsafe_values[u], ties).filtered {
                     *k = Some(t);
                     open -= 1;
                 }

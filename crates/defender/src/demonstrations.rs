@@ -1,65 +1,18 @@
 //! A demonstration set made ready for alignment: the sequences of both groups (SPEC section 1) as
 //! `defender-dtw` reference sets, and the optional feature scaling (SPEC section 2).
 
-use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 use defender_dtw::References;
+
+pub use crate::cost::{CostOptions, Scaling};
+use crate::cost::Elements;
+use crate::cost_stream::{CostStream, Recompute};
+use crate::window::Window;
 
 use crate::episode_set::EpisodeSet;
 use crate::error::{DefenderError, Result};
 use crate::strategy::Mode;
-
-/// Feature scaling applied to demonstrations and trajectories alike before DTW.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Scaling {
-    /// No scaling (SPEC section 2's default).
-    #[default]
-    None,
-    /// Per feature, subtract the mean and divide by the standard deviation, both fitted on every
-    /// element of every demonstration (both groups). A feature with standard deviation below
-    /// 1e-6 is only centred.
-    Zscore,
-}
-
-impl Scaling {
-    /// Every scaling, in the order of their names.
-    pub const ALL: [Scaling; 2] = [Scaling::None, Scaling::Zscore];
-
-    /// The name in configurations and CSV files: `none` or `zscore`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Scaling::None => "none",
-            Scaling::Zscore => "zscore",
-        }
-    }
-}
-
-impl std::fmt::Display for Scaling {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Scaling {
-    type Err = DefenderError;
-    fn from_str(s: &str) -> Result<Self> {
-        Scaling::ALL.into_iter().find(|c| c.name() == s).ok_or_else(|| DefenderError::UnknownName {
-            kind: "scaling",
-            name: s.to_string(),
-            valid: "none (plain DTW), zscore".to_string(),
-        })
-    }
-}
-
-/// Options of the alignment cost; the defaults are SPEC section 2's plain DTW.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CostOptions {
-    /// Feature scaling (default none).
-    #[serde(default)]
-    pub scaling: Scaling,
-}
 
 /// Per-feature affine map `(v - mean) * inv_std`.
 #[derive(Debug, Clone, PartialEq)]
@@ -113,6 +66,10 @@ pub struct Demonstrations {
     scaler: Option<Scaler>,
     safe: References,
     unsafe_: References,
+    /// The (scaled) sequences of each group, row-major, for the costs that are recomputed per
+    /// step from the capped trajectory (`CostOptions::is_incremental` false).
+    safe_seqs: Arc<Vec<Vec<f32>>>,
+    unsafe_seqs: Arc<Vec<Vec<f32>>>,
     min_reward: f32,
 }
 
@@ -123,9 +80,18 @@ impl Demonstrations {
     /// [`DefenderError::MissingGroup`] if a group is empty; a DTW error for unusable sequences.
     pub fn new(set: &EpisodeSet, mode: Mode, options: CostOptions) -> Result<Self> {
         set.require_both_groups()?;
+        options.validate()?;
         let dim = mode.element_dim(set.obs_dim(), set.act_dim());
-        let mut safe: Vec<Vec<f32>> = set.safe().map(|e| e.sequence(mode)).collect();
-        let mut unsafe_: Vec<Vec<f32>> = set.unsafe_().map(|e| e.sequence(mode)).collect();
+        let sequence = |e: crate::episode_set::Episode<'_>| {
+            let mut s = e.sequence(mode);
+            // One element per transition: state mode drops the final observation (SPEC 1 keeps it).
+            if options.elements == Elements::PerTransition && mode == Mode::State {
+                s.truncate(e.len() * dim);
+            }
+            s
+        };
+        let mut safe: Vec<Vec<f32>> = set.safe().map(sequence).collect();
+        let mut unsafe_: Vec<Vec<f32>> = set.unsafe_().map(sequence).collect();
         let scaler = match options.scaling {
             Scaling::None => None,
             Scaling::Zscore => {
@@ -155,6 +121,8 @@ impl Demonstrations {
             scaler,
             safe: refs(&safe)?,
             unsafe_: refs(&unsafe_)?,
+            safe_seqs: Arc::new(safe),
+            unsafe_seqs: Arc::new(unsafe_),
             min_reward,
         })
     }
@@ -192,6 +160,21 @@ impl Demonstrations {
     /// The unsafe group's sequences as a reference set.
     pub fn unsafe_(&self) -> &References {
         &self.unsafe_
+    }
+
+    /// A stream of the costs of one group (`crashed`: the unsafe one) for `windows`, under the
+    /// set's cost options: incremental for SPEC's cost, recomputed per step otherwise.
+    ///
+    /// # Errors
+    /// A DTW error for an invalid view (cannot happen for the SPEC's windows).
+    pub fn cost_stream(&self, crashed: bool, windows: &[Window]) -> Result<CostStream> {
+        if self.options.is_incremental() {
+            let views: Vec<_> = windows.iter().map(|w| w.view()).collect();
+            let refs = if crashed { &self.unsafe_ } else { &self.safe };
+            return Ok(CostStream::Exact(refs.stream(&views)?));
+        }
+        let seqs = if crashed { &self.unsafe_seqs } else { &self.safe_seqs };
+        Ok(CostStream::Recompute(Recompute::new(Arc::clone(seqs), self.element_dim(), windows, self.options)))
     }
 
     /// The lowest per-step reward of the set (both groups): the default `R_task`.
@@ -239,13 +222,13 @@ mod tests {
         let mut set = EpisodeSet::new(1, 1, Meta::default()).unwrap();
         set.push_episode(&[0., 2.], &[0.], &[0.], false).unwrap();
         set.push_episode(&[4., 6.], &[0.], &[0.], true).unwrap();
-        let opts = CostOptions { scaling: Scaling::Zscore };
+        let opts = CostOptions::with_scaling(Scaling::Zscore);
         let d = Demonstrations::new(&set, Mode::State, opts).unwrap();
         // mean 3, std sqrt(5)
         let mut e = Vec::new();
         d.element_into([3.0 + 5f32.sqrt()], &[0.0], &mut e);
         assert!((e[0] - 1.0).abs() < 1e-6, "{e:?}");
         let json = serde_json::to_string(&opts).unwrap();
-        assert_eq!(json, r#"{"scaling":"zscore"}"#);
+        assert!(json.starts_with(r#"{"scaling":"zscore","dtw":"exact""#), "{json}");
     }
 }

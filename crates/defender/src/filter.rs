@@ -1,8 +1,8 @@
 //! The online filter (SPEC section 4): at every step, align the trajectory so far with both groups
 //! of demonstrations and decide whether the proposed action is executed.
 
-use defender_dtw::Stream;
-
+use crate::cost::Ties;
+use crate::cost_stream::CostStream;
 use crate::demonstrations::Demonstrations;
 use crate::error::{DefenderError, Result};
 use crate::strategy::{Mode, Strategy};
@@ -10,7 +10,8 @@ use crate::strategy::{Mode, Strategy};
 /// The filter's verdict on one step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Decision {
-    /// The step is filtered: `Safe(tau) >= Unsafe(tau)` (ties filter).
+    /// The step is filtered: `Safe(tau) >= Unsafe(tau)` (ties filter; with [`Ties::Execute`],
+    /// `Safe(tau) > Unsafe(tau)`).
     pub filtered: bool,
     /// `Safe(tau)`: the safe method over the safe group.
     pub safe_cost: f64,
@@ -22,8 +23,17 @@ impl Decision {
     /// The decision rule of SPEC section 4: execute iff `safe < unsafe`; otherwise (ties, and any
     /// NaN) filter.
     pub fn new(safe_cost: f64, unsafe_cost: f64) -> Self {
-        // Executed only when `safe < unsafe` holds; equal and unordered (NaN) filter.
-        let filtered = safe_cost.partial_cmp(&unsafe_cost) != Some(std::cmp::Ordering::Less);
+        Self::with_ties(safe_cost, unsafe_cost, Ties::Filter)
+    }
+
+    /// The decision under a tie rule: with [`Ties::Execute`] (the authors' code) an equal cost
+    /// executes and only `safe > unsafe` filters; unordered (NaN) costs filter under both rules.
+    pub fn with_ties(safe_cost: f64, unsafe_cost: f64, ties: Ties) -> Self {
+        use std::cmp::Ordering::{Equal, Less};
+        let filtered = match (safe_cost.partial_cmp(&unsafe_cost), ties) {
+            (Some(Less), _) | (Some(Equal), Ties::Execute) => false,
+            _ => true,
+        };
         Self { filtered, safe_cost, unsafe_cost }
     }
 }
@@ -39,8 +49,8 @@ impl Decision {
 pub struct Filter {
     demos: Demonstrations,
     strategy: Strategy,
-    safe: Stream,
-    unsafe_: Stream,
+    safe: CostStream,
+    unsafe_: CostStream,
     element: Vec<f32>,
     act: Vec<f32>,
 }
@@ -51,8 +61,8 @@ impl Filter {
     /// # Errors
     /// A DTW error for an invalid view (cannot happen for the SPEC's windows).
     pub fn new(demos: &Demonstrations, strategy: Strategy) -> Result<Self> {
-        let safe = demos.safe().stream(&[strategy.safe.window.view()])?;
-        let unsafe_ = demos.unsafe_().stream(&[strategy.unsafe_.window.view()])?;
+        let safe = demos.cost_stream(false, &[strategy.safe.window])?;
+        let unsafe_ = demos.cost_stream(true, &[strategy.unsafe_.window])?;
         Ok(Self {
             demos: demos.clone(),
             strategy,
@@ -147,7 +157,7 @@ impl Filter {
         self.unsafe_.push(&self.element)?;
         let safe = self.strategy.safe.aggregation.apply(self.safe.costs(0));
         let unsafe_ = self.strategy.unsafe_.aggregation.apply(self.unsafe_.costs(0));
-        Ok(Decision::new(safe, unsafe_))
+        Ok(Decision::with_ties(safe, unsafe_, self.demos.options().ties))
     }
 }
 
@@ -171,6 +181,9 @@ mod tests {
         assert!(Decision::new(2.0, 1.0).filtered);
         assert!(!Decision::new(0.5, 1.0).filtered);
         assert!(Decision::new(f64::NAN, 1.0).filtered);
+        assert!(!Decision::with_ties(1.0, 1.0, Ties::Execute).filtered);
+        assert!(Decision::with_ties(1.5, 1.0, Ties::Execute).filtered);
+        assert!(Decision::with_ties(f64::NAN, 1.0, Ties::Execute).filtered);
     }
 
     #[test]

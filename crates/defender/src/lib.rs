@@ -2,6 +2,8 @@
 
 mod ablation;
 mod atomic;
+mod cost;
+mod cost_stream;
 pub mod collection;
 mod defender_env;
 mod demonstrations;
@@ -22,7 +24,9 @@ mod window;
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
 pub use atomic::write_atomic;
 pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats};
-pub use demonstrations::{CostOptions, Demonstrations, Scaling};
+pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
+pub use cost_stream::CostStream;
+pub use demonstrations::Demonstrations;
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
 pub use dynamics_worker::DynamicsHandle;
 pub use episode_set::{Episode, EpisodeSet, Meta};

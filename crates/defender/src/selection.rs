@@ -144,7 +144,7 @@ pub struct SelectionConfig {
 /// What `strategy = "auto"` compares when the run configures no scaling: SPEC section 2's plain
 /// DTW first (it wins ties), then DTW on z-scored features.
 pub const AUTO_COSTS: [CostOptions; 2] =
-    [CostOptions { scaling: Scaling::None }, CostOptions { scaling: Scaling::Zscore }];
+    [CostOptions::with_scaling(Scaling::None), CostOptions::with_scaling(Scaling::Zscore)];
 
 impl Default for SelectionConfig {
     /// State mode, all demonstrations, all 576 strategies, `L = 1`, a 10% false-alarm budget,

@@ -100,7 +100,7 @@ pub fn run(args: SelectArgs) -> Result<()> {
         costs: if args.scaling == "auto" {
             AUTO_COSTS.to_vec()
         } else {
-            vec![defender::CostOptions { scaling: args.scaling.parse()? }]
+            vec![defender::CostOptions::with_scaling(args.scaling.parse()?)]
         },
     };
     let demos = EpisodeSet::load(&args.demos)?;

@@ -14,7 +14,7 @@ use defender_rl::{
 
 use crate::progress;
 use crate::resume;
-use crate::run_config::{DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config};
+use crate::run_config::{DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config, with_profile};
 use crate::run_dir::{self, RunDir};
 use crate::setup::{self, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
@@ -91,6 +91,12 @@ pub struct TrainArgs {
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// spec (SPEC.md, the default) or authors: every setting in which the authors' code differs
+    /// (FastDTW L1 over the last 20 steps, ties executed, demonstrations in the replay buffer
+    /// with a behaviour-cloning term, SAC without warm-up at alpha 0.5, episode ends terminal;
+    /// docs/SPEC.md). Keys the configuration gives win; config.toml lists every setting.
+    #[arg(long, value_enum)]
+    pub profile: Option<crate::profile::Profile>,
     /// Save the training episodes as an episode set (.npz) for `defender ablate`.
     #[arg(long)]
     pub record_episodes: Option<PathBuf>,
@@ -119,6 +125,9 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     let config = match &args.config {
         Some(path) => read_config(path)?,
         None => RunConfig {
+            profile: Default::default(),
+            demos: None,
+            demos_sha256: None,
             env: args
                 .env
                 .clone()
@@ -137,7 +146,18 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             td3: None,
         },
     };
-    apply_flags(config, args)
+    let config = apply_flags(config, args)?;
+    // The profile again, now that the flags may have set the algorithm or a strategy: it fills
+    // what the file (or nothing) gave, never a key the file set.
+    let mut given = match &args.config {
+        Some(path) => toml::from_str(&std::fs::read_to_string(path)?)?,
+        None => toml::Table::new(),
+    };
+    if let Some(profile) = args.profile {
+        given.insert("profile".into(), profile.name().into());
+    }
+    let written = toml::Table::try_from(&config)?;
+    with_profile(&written, &given)
 }
 
 /// Applies the command's flags over `config`.
@@ -253,10 +273,13 @@ pub fn run(args: TrainArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_ref())?;
+    let built = setup::build(&config)?;
     // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
     // records.
     config.defender = built.defender;
+    if let Some((path, sha256)) = built.replay_demos {
+        (config.demos, config.demos_sha256) = (Some(path), Some(sha256));
+    }
     if let Some(path) = &config.record_episodes {
         run_dir::check_writable(path).context("--record-episodes")?;
     }

@@ -19,6 +19,10 @@
 //! per_env = { "InvertedDoublePendulum-v5" = { steps = 30000, eval_freq = 2500 } }
 //! [run]                        # any key of a run's config.toml, for every run
 //! eval_freq = 5000
+//! [[arms]]                     # optional: named variants of the grid, each with its own
+//! name = "authors"             # settings over [run] (and optionally its own strategies/algos);
+//! strategies = ["none"]        # its runs are named <algo>-<strategy>[-sa][-nN]-<arm>-s<seed>
+//! run = { profile = "authors" }
 //! ```
 
 use std::collections::BTreeMap;
@@ -44,6 +48,44 @@ struct ExperimentFile {
     budget: BudgetSpec,
     #[serde(default)]
     run: Option<toml::Table>,
+    #[serde(default)]
+    arms: Vec<Arm>,
+}
+
+/// A named variant of the grid: its runs get the arm's settings over `[run]`, and `-<name>` in
+/// their names, so that variants of one configuration live side by side in one sweep directory.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Arm {
+    name: Spanned<String>,
+    #[serde(default)]
+    strategies: Option<Vec<Spanned<String>>>,
+    #[serde(default)]
+    algos: Option<Vec<Spanned<String>>>,
+    #[serde(default)]
+    run: Option<toml::Table>,
+}
+
+/// `over` merged into `base`, table by table; `over`'s values win.
+fn merged(base: &Option<toml::Table>, over: &Option<toml::Table>) -> Option<toml::Table> {
+    fn merge(base: &mut toml::Table, over: &toml::Table) {
+        for (k, v) in over {
+            match (base.get_mut(k), v) {
+                (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+                _ => {
+                    base.insert(k.clone(), v.clone());
+                }
+            }
+        }
+    }
+    match (base, over) {
+        (None, None) => None,
+        (b, o) => {
+            let mut table = b.clone().unwrap_or_default();
+            merge(&mut table, &o.clone().unwrap_or_default());
+            Some(table)
+        }
+    }
 }
 
 /// The paper's own budget for this experiment, recorded beside the one this file runs.
@@ -195,19 +237,59 @@ pub fn parse(text: &str) -> Result<Experiment> {
             bail!("{}: unknown task '{}' in grid.envs (known: {})", at(env), env.get_ref(), known.join(", "));
         }
     }
-    let mut algos = Vec::new();
-    for a in &g.algos {
-        let algo: Algo = a
-            .get_ref()
-            .parse()
-            .map_err(|_| anyhow::anyhow!("{}: unknown algorithm '{}' (sac or td3)", at(a), a.get_ref()))?;
-        algos.push(algo);
+    let parse_algos = |list: &[Spanned<String>]| -> Result<Vec<Algo>> {
+        list.iter()
+            .map(|a| {
+                a.get_ref()
+                    .parse()
+                    .map_err(|_| anyhow::anyhow!("{}: unknown algorithm '{}' (sac or td3)", at(a), a.get_ref()))
+            })
+            .collect()
+    };
+    let parse_strategies = |list: &[Spanned<String>]| -> Result<Vec<Option<StrategyChoice>>> {
+        list.iter()
+            .map(|s| {
+                Ok(match s.get_ref().as_str() {
+                    "none" => None,
+                    other => Some(other.parse().with_context(|| format!("{}: grid.strategies", at(s)))?),
+                })
+            })
+            .collect()
+    };
+    // Without [[arms]], one unnamed arm: the grid as it is.
+    struct Expanded<'a> {
+        name: Option<&'a str>,
+        algos: Vec<Algo>,
+        strategies: Vec<Option<StrategyChoice>>,
+        spans: &'a [Spanned<String>],
+        run: Option<toml::Table>,
     }
-    let mut strategies: Vec<Option<StrategyChoice>> = Vec::new();
-    for s in &g.strategies {
-        strategies.push(match s.get_ref().as_str() {
-            "none" => None,
-            other => Some(other.parse().with_context(|| format!("{}: grid.strategies", at(s)))?),
+    let mut arms: Vec<Expanded<'_>> = Vec::new();
+    if file.arms.is_empty() {
+        arms.push(Expanded {
+            name: None,
+            algos: parse_algos(&g.algos)?,
+            strategies: parse_strategies(&g.strategies)?,
+            spans: &g.strategies,
+            run: file.run.clone(),
+        });
+    }
+    for arm in &file.arms {
+        let name = arm.name.get_ref();
+        if name.is_empty() || !name.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-') {
+            bail!("{}: arms.name '{name}': use lowercase letters, digits and '-' (it becomes part of run names)", at(&arm.name));
+        }
+        let spans = arm.strategies.as_deref().unwrap_or(&g.strategies);
+        let algos = arm.algos.as_deref().unwrap_or(&g.algos);
+        if spans.is_empty() || algos.is_empty() {
+            bail!("{}: arm '{name}' has an empty list of strategies or algorithms", at(&arm.name));
+        }
+        arms.push(Expanded {
+            name: Some(name),
+            algos: parse_algos(algos)?,
+            strategies: parse_strategies(spans)?,
+            spans,
+            run: merged(&file.run, &arm.run),
         });
     }
     let mut modes: Vec<defender::Mode> = Vec::new();
@@ -240,8 +322,8 @@ pub fn parse(text: &str) -> Result<Experiment> {
     for env in &g.envs {
         let env = env.get_ref();
         let (total_steps, total_episodes) = budget_of(env)?;
-        for &algo in &algos {
-            for (strategy, spanned) in strategies.iter().zip(&g.strategies) {
+        for (arm, &algo) in arms.iter().flat_map(|arm| arm.algos.iter().map(move |a| (arm, a))) {
+            for (strategy, spanned) in arm.strategies.iter().zip(arm.spans) {
                 // A bare run has no mode or demonstrations: one per seed, whatever those lists hold.
                 let variants: Vec<(Option<defender::Mode>, Option<usize>)> = match strategy {
                     None => vec![(None, None)],
@@ -259,6 +341,9 @@ pub fn parse(text: &str) -> Result<Experiment> {
                         if let Some(n) = n {
                             name.push_str(&format!("-n{n}"));
                         }
+                        if let Some(arm) = arm.name {
+                            name.push_str(&format!("-{arm}"));
+                        }
                         name.push_str(&format!("-s{seed}"));
                         if let Some(first) = seen.insert(name.clone(), at(spanned)) {
                             bail!(
@@ -267,7 +352,7 @@ pub fn parse(text: &str) -> Result<Experiment> {
                             );
                         }
                         let mut config = run_config(
-                            &file.run,
+                            &arm.run,
                             env,
                             algo,
                             *strategy,

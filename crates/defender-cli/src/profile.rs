@@ -1,0 +1,171 @@
+//! Profiles: one switch (`profile = "authors"`, `--profile authors`) that sets every setting in
+//! which the paper's experiments, as its authors' code ran them, differ from SPEC.md
+//! (docs/SPEC.md, "The authors' profile"). A profile only fills keys the configuration leaves
+//! out, and the run's `config.toml` holds every setting it gave, so a reader sees each one.
+
+use anyhow::{Result, bail};
+use serde::{Deserialize, Serialize};
+
+/// Which defaults a run's configuration starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Profile {
+    /// SPEC.md: the paper's text, with every point it leaves open fixed.
+    #[default]
+    Spec,
+    /// The authors' code (meowatthemoon/DEFENDER): FastDTW with the L1 distance over the last 20
+    /// steps, one element per transition, ties executed; the DEFENDER agent learns from the
+    /// demonstrations too (in its replay buffer, SAC with a behaviour-cloning term); SAC without
+    /// a random warm-up, a fixed entropy coefficient, every episode end terminal.
+    Authors,
+}
+
+impl Profile {
+    /// The name in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Profile::Spec => "spec",
+            Profile::Authors => "authors",
+        }
+    }
+
+    /// The keys this profile sets for a run of `algo` (`"sac"` or `"td3"`), with or without a
+    /// `[defender]` section, as a TOML table.
+    pub fn settings(self, algo: &str, defender: bool) -> toml::Table {
+        let mut t = toml::Table::new();
+        if self == Profile::Spec {
+            return t;
+        }
+        let mut agent = toml::Table::new();
+        // No random warm-up: the stochastic policy acts from step 0 and learning starts once a
+        // batch is in the buffer (their SAC and TD3 learn from the first full batch).
+        agent.insert("warmup".into(), false.into());
+        agent.insert("learning_starts".into(), 0.into());
+        // Their memory stores `done = terminated or truncated`: a time-limit cut is terminal.
+        agent.insert("terminal_on_truncation".into(), true.into());
+        if algo == "sac" {
+            // Reward scale 2 with alpha 1 in their loss is alpha 0.5 at reward scale 1.
+            agent.insert("ent_coef".into(), 0.5.into());
+        }
+        if defender {
+            agent.insert("demos_in_replay".into(), true.into());
+            if algo == "sac" {
+                agent.insert("bc_weight".into(), 1.0.into());
+                agent.insert("bc_form".into(), "authors".into());
+            }
+            let cost = toml::Table::try_from(defender::CostOptions::authors()).unwrap_or_default();
+            let mut section = toml::Table::new();
+            section.insert("cost".into(), cost.into());
+            t.insert("defender".into(), section.into());
+        }
+        t.insert(algo.into(), agent.into());
+        t
+    }
+}
+
+/// Fills the keys of `table` (a run configuration as written) that its profile sets and it
+/// leaves out; `given` is what the user gave (a key present there is never replaced).
+///
+/// # Errors
+/// An unknown profile name, or a `profile` that is not a string.
+pub fn expand(table: &mut toml::Table, given: &toml::Table) -> Result<()> {
+    let profile = match given.get("profile").or_else(|| table.get("profile")) {
+        None => return Ok(()),
+        Some(toml::Value::String(name)) => match name.as_str() {
+            "spec" => Profile::Spec,
+            "authors" => Profile::Authors,
+            other => bail!("profile = \"{other}\": unknown profile (expected \"spec\" or \"authors\")"),
+        },
+        Some(other) => bail!("profile = {other}: expected \"spec\" or \"authors\""),
+    };
+    let algo = table.get("algo").and_then(toml::Value::as_str).unwrap_or("sac").to_string();
+    let defender = table.contains_key("defender");
+    fill(table, given, &profile.settings(&algo, defender));
+    Ok(())
+}
+
+/// Inserts every leaf of `settings` absent from `given` into `table` (tables merged).
+fn fill(table: &mut toml::Table, given: &toml::Table, settings: &toml::Table) {
+    for (key, value) in settings {
+        let given_here = given.get(key);
+        match value {
+            toml::Value::Table(inner) => {
+                let empty = toml::Table::new();
+                let given_inner = given_here.and_then(toml::Value::as_table).unwrap_or(&empty);
+                let entry = table.entry(key.clone()).or_insert_with(|| toml::Table::new().into());
+                if let Some(sub) = entry.as_table_mut() {
+                    fill(sub, given_inner, inner);
+                }
+            }
+            leaf => {
+                if given_here.is_none() {
+                    table.insert(key.clone(), leaf.clone());
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn expanded(text: &str) -> toml::Table {
+        let given: toml::Table = toml::from_str(text).unwrap();
+        let mut table = given.clone();
+        expand(&mut table, &given).unwrap();
+        table
+    }
+
+    #[test]
+    fn the_authors_profile_sets_exactly_its_settings() {
+        let t = expanded("profile = \"authors\"\nalgo = \"sac\"\n[defender]\nstrategy = \"MeanBothW5/MeanBothW5\"\n");
+        let sac = t["sac"].as_table().unwrap();
+        let keys: Vec<&str> = sac.keys().map(String::as_str).collect();
+        assert_eq!(
+            keys,
+            [
+                "bc_form",
+                "bc_weight",
+                "demos_in_replay",
+                "ent_coef",
+                "learning_starts",
+                "terminal_on_truncation",
+                "warmup"
+            ]
+        );
+        assert_eq!(sac["ent_coef"].as_float(), Some(0.5));
+        let cost = t["defender"]["cost"].as_table().unwrap();
+        assert_eq!(cost["dtw"].as_str(), Some("fastdtw"));
+        assert_eq!(cost["metric"].as_str(), Some("l1"));
+        assert_eq!(cost["trajectory_cap"].as_integer(), Some(20));
+        assert_eq!(cost["elements"].as_str(), Some("per-transition"));
+        assert_eq!(cost["ties"].as_str(), Some("execute"));
+        assert_eq!(cost["radius"].as_integer(), Some(1));
+        // A bare run gets the authors' SAC, without demonstrations or cloning (their baselines).
+        let bare = expanded("profile = \"authors\"\nalgo = \"sac\"\n");
+        assert!(!bare["sac"].as_table().unwrap().contains_key("demos_in_replay"));
+        assert!(!bare.contains_key("defender"));
+        // TD3: demonstrations in the buffer, no cloning term, no entropy coefficient.
+        let td3 = expanded("profile = \"authors\"\nalgo = \"td3\"\n[defender]\nstrategy = \"MinBoth/MinBoth\"\n");
+        let keys: Vec<&str> = td3["td3"].as_table().unwrap().keys().map(String::as_str).collect();
+        assert_eq!(keys, ["demos_in_replay", "learning_starts", "terminal_on_truncation", "warmup"]);
+    }
+
+    #[test]
+    fn given_keys_win_and_spec_changes_nothing() {
+        let t = expanded(
+            "profile = \"authors\"\nalgo = \"sac\"\n[sac]\nbc_weight = 0.0\ndemos_in_replay = false\n\
+             [defender]\nstrategy = \"MinBoth/MinBoth\"\n[defender.cost]\nmetric = \"l2\"\n",
+        );
+        assert_eq!(t["sac"]["bc_weight"].as_float(), Some(0.0));
+        assert_eq!(t["sac"]["demos_in_replay"].as_bool(), Some(false));
+        assert_eq!(t["defender"]["cost"]["metric"].as_str(), Some("l2"));
+        assert_eq!(t["defender"]["cost"]["dtw"].as_str(), Some("fastdtw"));
+        let spec = expanded("profile = \"spec\"\nalgo = \"sac\"\n");
+        assert!(!spec.contains_key("sac"));
+        let given: toml::Table = toml::from_str("profile = \"paper\"").unwrap();
+        let err = expand(&mut given.clone(), &given).unwrap_err().to_string();
+        assert!(err.contains("unknown profile"), "{err}");
+    }
+}
