@@ -1,8 +1,8 @@
 //! Batch DTW between two sequences: the settings builder [`Dtw`] and the function [`dtw`].
 
 use crate::error::{DtwError, Result, check_sequence};
-use crate::kernel::{self, Problem, RevSeq};
 use crate::isa::isa;
+use crate::kernel::{self, Problem, RevSeq};
 use crate::metric::Metric;
 
 /// How to align two sequences: Euclidean local cost (or L1, [`Dtw::with_metric`]), steps (1,0), (0,1), (1,1) of weight 1

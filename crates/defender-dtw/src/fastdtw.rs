@@ -80,7 +80,7 @@ pub fn fastdtw(x: &[f32], y: &[f32], dim: usize, settings: &FastDtw) -> Result<f
     let n = check_sequence("x", x, dim)?;
     let m = check_sequence("y", y, dim)?;
     let (px, py) = (Pyramid::new(x, dim), Pyramid::new(y, dim));
-    Solver::default().fastdtw(isa(), &px, &py, settings.radius, settings.metric).ok_or_else(|| {
-        DtwError::NoWarpingPath { name: "x and y".into(), n, m, radius: settings.radius }
-    })
+    Solver::default()
+        .fastdtw(isa(), &px, &py, settings.radius, settings.metric)
+        .ok_or_else(|| DtwError::NoWarpingPath { name: "x and y".into(), n, m, radius: settings.radius })
 }

@@ -117,7 +117,11 @@ fn strips<const L: usize, const FMA: bool, const BANDED: bool, const L1: bool>(
             let mut acc = lanes::splat::<L>(0.0);
             for (k, xk) in xs.iter().enumerate() {
                 let yk = lanes::load::<L>(p.y.data, k * p.y.stride + at);
-                acc = if L1 { lanes::abs_diff_acc(acc, *xk, yk) } else { lanes::sq_diff_acc::<L, FMA>(acc, *xk, yk) };
+                acc = if L1 {
+                    lanes::abs_diff_acc(acc, *xk, yk)
+                } else {
+                    lanes::sq_diff_acc::<L, FMA>(acc, *xk, yk)
+                };
             }
             let mut c = if L1 { acc } else { lanes::sqrt(acc) };
             if BANDED {

@@ -36,30 +36,47 @@ pub(crate) type V64<const L: usize> = [f64; L];
 /// `((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))`, then the remainder one by one; above that,
 /// halves rounded to a multiple of 8. L2 is the square root of the sum of squares in order
 /// (numpy calls BLAS `ddot` there, whose order depends on the CPU: equal up to rounding).
+/// Plain loops, not `std::array::from_fn`, so that everything inlines into the SIMD kernels.
 #[inline(always)]
 pub(crate) fn lanes<const L: usize>(metric: Metric, dim: usize, diff: impl Fn(usize) -> V64<L>) -> V64<L> {
     match metric {
         Metric::L1 => {
-            let abs = |k: usize| diff(k).map(f64::abs);
+            let abs = |k: usize| {
+                let mut d = diff(k);
+                for v in &mut d {
+                    *v = v.abs();
+                }
+                d
+            };
             if dim <= 128 { pairwise_block(0, dim, &abs) } else { pairwise(0, dim, &abs) }
         }
         Metric::L2 => {
             let mut acc = [0.0; L];
             for k in 0..dim {
                 let d = diff(k);
-                for (a, d) in acc.iter_mut().zip(d) {
-                    *a += d * d;
+                for l in 0..L {
+                    acc[l] += d[l] * d[l];
                 }
             }
-            acc.map(f64::sqrt)
+            for v in &mut acc {
+                *v = v.sqrt();
+            }
+            acc
         }
     }
+}
+
+#[inline(always)]
+fn add<const L: usize>(mut x: V64<L>, y: V64<L>) -> V64<L> {
+    for l in 0..L {
+        x[l] += y[l];
+    }
+    x
 }
 
 /// numpy's `pairwise_sum` over terms `start..start + n`, `n <= 128` (no recursion, so it inlines).
 #[inline(always)]
 fn pairwise_block<const L: usize>(start: usize, n: usize, a: &impl Fn(usize) -> V64<L>) -> V64<L> {
-    let add = |x: V64<L>, y: V64<L>| -> V64<L> { std::array::from_fn(|l| x[l] + y[l]) };
     if n < 8 {
         let mut res = [0.0; L];
         for k in start..start + n {
@@ -67,7 +84,10 @@ fn pairwise_block<const L: usize>(start: usize, n: usize, a: &impl Fn(usize) -> 
         }
         return res;
     }
-    let mut r: [V64<L>; 8] = std::array::from_fn(|q| a(start + q));
+    let mut r = [[0.0; L]; 8];
+    for (q, rq) in r.iter_mut().enumerate() {
+        *rq = a(start + q);
+    }
     let mut i = 8;
     while i < n - n % 8 {
         for (q, rq) in r.iter_mut().enumerate() {
@@ -90,8 +110,7 @@ fn pairwise<const L: usize>(start: usize, n: usize, a: &impl Fn(usize) -> V64<L>
     }
     let mut half = n / 2;
     half -= half % 8;
-    let (x, y) = (pairwise(start, half, a), pairwise(start + half, n - half, a));
-    std::array::from_fn(|l| x[l] + y[l])
+    add(pairwise(start, half, a), pairwise(start + half, n - half, a))
 }
 
 /// The distance between two f64 points (the scalar form of [`lanes`]).

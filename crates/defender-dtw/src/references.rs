@@ -6,9 +6,9 @@ use std::sync::Arc;
 
 use crate::batch::Dtw;
 use crate::error::{DtwError, Result, check_finite, check_sequence};
-use crate::kernel::{self, Problem, RevSeq};
-use crate::isa::isa;
 use crate::isa::Isa;
+use crate::isa::isa;
+use crate::kernel::{self, Problem, RevSeq};
 use crate::lanes::{GROUP, PAD};
 use crate::view::{QueryWindow, View};
 
@@ -152,13 +152,7 @@ impl References {
     }
 
     /// The batch problem `x` against the last `cols` elements of reference `i`.
-    pub(crate) fn problem<'a>(
-        &'a self,
-        i: usize,
-        x: &'a [f32],
-        cols: usize,
-        settings: &Dtw,
-    ) -> Problem<'a> {
+    pub(crate) fn problem<'a>(&'a self, i: usize, x: &'a [f32], cols: usize, settings: &Dtw) -> Problem<'a> {
         let inner = &*self.inner;
         let stride = inner.lens[i] + 2 * PAD;
         let start = inner.rev_start[i];
@@ -173,7 +167,6 @@ impl References {
             metric: settings.metric,
         }
     }
-
 }
 
 /// Checks one query element before it is pushed.

@@ -34,7 +34,14 @@ pub(crate) struct Solver {
 impl Solver {
     /// FastDTW between the two sequences whose levels are `x` and `y`; `None` when the window
     /// misses the last cell (radius 0 with an odd length: the package raises `IndexError` there).
-    pub(crate) fn fastdtw(&mut self, isa: Isa, x: &Pyramid, y: &Pyramid, radius: usize, metric: Metric) -> Option<f64> {
+    pub(crate) fn fastdtw(
+        &mut self,
+        isa: Isa,
+        x: &Pyramid,
+        y: &Pyramid,
+        radius: usize,
+        metric: Metric,
+    ) -> Option<f64> {
         let min_len = radius.saturating_add(2);
         let mut base = 0;
         while x.lens[base] >= min_len && y.lens[base] >= min_len {
@@ -173,7 +180,11 @@ fn local_costs<const L: usize>(p: &Problem<'_>, i: usize, lo: usize, out: &mut [
     for chunk in &mut chunks {
         let c: V64<L> = metric::lanes::<L>(p.metric, p.dim, |k| {
             let (xk, yk) = (x.component(k)[i], &y.component(k)[j..j + L]);
-            std::array::from_fn(|l| xk - yk[l])
+            let mut d = [0.0; L];
+            for l in 0..L {
+                d[l] = xk - yk[l];
+            }
+            d
         });
         chunk.copy_from_slice(&c);
         j += L;

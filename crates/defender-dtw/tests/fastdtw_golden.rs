@@ -98,8 +98,7 @@ fn reference_sets_match_the_package() {
                 let mut out = vec![0.0; ys.len()];
                 for (q, c) in group.iter().enumerate().step_by(7) {
                     refs.costs_into(&c.x, &all, &mut out).unwrap();
-                    let (_, _, want) =
-                        c.want.iter().find(|w| w.0 == Some(radius) && w.1 == metric).unwrap();
+                    let (_, _, want) = c.want.iter().find(|w| w.0 == Some(radius) && w.1 == metric).unwrap();
                     assert_close(&c.name, out[q], want.unwrap());
                     for (y, &got) in ys.iter().zip(&out) {
                         assert_eq!(got, fastdtw(&c.x, y, dim, &settings).unwrap());
