@@ -4,13 +4,17 @@
 //! ```sh
 //! cargo run --release -p defender-dtw --example dtw_speed -- batch 1000 1000 11 [x.f32 y.f32]
 //! cargo run --release -p defender-dtw --example dtw_speed -- push 100 1000 11
+//! cargo run --release -p defender-dtw --example dtw_speed -- step 100 1000 11
 //! ```
+//! `step` times one filter step of the authors' profile: the last 20 elements of a trajectory
+//! against every reference, FastDTW (radius 1, L1) and exact DTW (L2, L1); per step, CPU time,
+//! min / median / max of 7 rounds of 100 steps.
 //! `batch` prints `cost=<dtw> seconds=<best of runs> cells_per_s=<n*m/seconds>`; the optional
 //! files are raw little-endian f32, row-major (else random walks are used).
 
 use std::time::Instant;
 
-use defender_dtw::{Dtw, QueryWindow, RefWindow, References, View, dtw};
+use defender_dtw::{Dtw, FastDtw, FastReferences, Metric, QueryWindow, RefWindow, References, View, dtw};
 
 #[path = "../benches/support/walk.rs"]
 mod walk;
@@ -103,7 +107,37 @@ fn main() -> anyhow_free::Result<()> {
                 );
             }
         }
-        _ => eprintln!("usage: dtw_speed batch N M D [x.f32 y.f32] | push REFS M D"),
+        Some("step") => {
+            let (count, m, dim) = (arg(1, 100), arg(2, 1000), arg(3, 11));
+            let seqs: Vec<Vec<f32>> = (0..count).map(|i| walk(m, dim, 200 + i as u64)).collect();
+            let slices: Vec<&[f32]> = seqs.iter().map(Vec::as_slice).collect();
+            let trajectory = walk(120, dim, 4);
+            let all = View::new(QueryWindow::All, RefWindow::All);
+            let mut fast = FastReferences::new(dim, &slices, FastDtw::default())?;
+            let exact = References::new(dim, &slices)?;
+            let (mut out64, mut out32) = (vec![0.0; count], vec![0.0; count]);
+            let l1 = Dtw::euclidean().with_metric(Metric::L1);
+            let run = |name: &str, step: &mut dyn FnMut(&[f32]) -> defender_dtw::Result<()>| {
+                let mut rounds = Vec::new();
+                for _ in 0..7 {
+                    let c = cpu_seconds();
+                    for t in 0..100 {
+                        step(&trajectory[t * dim..(t + 20) * dim])?;
+                    }
+                    rounds.push((cpu_seconds() - c) / 100.0 * 1e6);
+                }
+                rounds.sort_by(f64::total_cmp);
+                println!(
+                    "{name}: 20 x {m} x d={dim}, {count} refs: {:.1} us per step (cpu; min {:.1}, max {:.1})",
+                    rounds[3], rounds[0], rounds[6]
+                );
+                defender_dtw::Result::Ok(())
+            };
+            run("fastdtw r1 l1", &mut |q| fast.costs_into(q, &all, &mut out64))?;
+            run("exact l2", &mut |q| exact.align_view_into(q, &all, &Dtw::euclidean(), &mut out32))?;
+            run("exact l1", &mut |q| exact.align_view_into(q, &all, &l1, &mut out32))?;
+        }
+        _ => eprintln!("usage: dtw_speed batch N M D [x.f32 y.f32] | push REFS M D | step REFS M D"),
     }
     Ok(())
 }

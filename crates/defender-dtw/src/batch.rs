@@ -1,10 +1,11 @@
 //! Batch DTW between two sequences: the settings builder [`Dtw`] and the function [`dtw`].
 
 use crate::error::{DtwError, Result, check_sequence};
+use crate::isa::isa;
 use crate::kernel::{self, Problem, RevSeq};
-use crate::lanes::isa;
+use crate::metric::Metric;
 
-/// How to align two sequences: Euclidean local cost, steps (1,0), (0,1), (1,1) of weight 1
+/// How to align two sequences: Euclidean local cost (or L1, [`Dtw::with_metric`]), steps (1,0), (0,1), (1,1) of weight 1
 /// (SPEC section 2), plus the optional Sakoe-Chiba band and early-abandon threshold.
 ///
 /// ```
@@ -24,6 +25,9 @@ pub struct Dtw {
     /// Early-abandon threshold: the result is `+inf` whenever the cost exceeds it, and the
     /// computation stops as soon as that is certain (`None`: never abandon).
     pub max_cost: Option<f32>,
+    /// The local cost: [`Metric::L2`] (SPEC section 2, the default) or [`Metric::L1`] (the
+    /// `fastdtw` package's default on vectors, which the paper's code used).
+    pub metric: Metric,
 }
 
 impl Default for Dtw {
@@ -37,7 +41,7 @@ impl Dtw {
     /// dtw-python's `dtw(x, y, dist_method="euclidean", step_pattern=symmetric1).distance`.
     #[must_use]
     pub fn euclidean() -> Self {
-        Self { band: None, max_cost: None }
+        Self { band: None, max_cost: None, metric: Metric::L2 }
     }
 
     /// Restricts the warping path to the Sakoe-Chiba band `|i - j| <= half_width`.
@@ -50,6 +54,13 @@ impl Dtw {
     #[must_use]
     pub fn with_max_cost(self, max_cost: f32) -> Self {
         Self { max_cost: Some(max_cost), ..self }
+    }
+
+    /// The same settings with another local cost. The L1 kernel is the Euclidean one with `|a - b|`
+    /// summed in place of `(a - b)^2` and no square root, in f32 like it.
+    #[must_use]
+    pub fn with_metric(self, metric: Metric) -> Self {
+        Self { metric, ..self }
     }
 
     pub(crate) fn check(&self) -> Result<()> {
@@ -97,6 +108,7 @@ pub fn dtw(x: &[f32], y: &[f32], dim: usize, settings: &Dtw) -> Result<f32> {
         cols: m,
         band: settings.band,
         max_cost: settings.threshold(),
+        metric: settings.metric,
     };
     Ok(kernel::dtw_cost(isa(), &problem, &mut Vec::new()))
 }

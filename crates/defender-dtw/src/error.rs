@@ -54,6 +54,23 @@ pub enum DtwError {
         /// What was expected.
         reason: String,
     },
+    /// FastDTW's window does not reach the last cell: with radius 0, a coarsened length that is odd
+    /// leaves the last row or column out (the `fastdtw` package raises `IndexError` there).
+    #[error(
+        "fastdtw with radius {radius} has no warping path for {name} ({n} x {m} elements): its window \
+         misses the last cell when a coarsened length is odd (the fastdtw package raises IndexError \
+         here); use radius >= 1"
+    )]
+    NoWarpingPath {
+        /// Which pair (e.g. "x and y", "reference 3").
+        name: String,
+        /// The query's number of elements.
+        n: usize,
+        /// The reference's number of elements.
+        m: usize,
+        /// The radius used.
+        radius: usize,
+    },
 }
 
 /// `Result` with [`DtwError`].

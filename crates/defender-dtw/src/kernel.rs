@@ -16,6 +16,7 @@
 //! columns `< 0`, which stay `+inf` because everything before the first step is `+inf`.
 
 use crate::lanes::{self, PAD, V};
+use crate::metric::Metric;
 
 /// A sequence stored reversed and dimension-major with `PAD` zeros on both sides:
 /// component `k` of element `len - 1 - p` is at `data[k * stride + PAD + p]`.
@@ -56,6 +57,8 @@ pub(crate) struct Problem<'a> {
     pub(crate) band: Option<usize>,
     /// `+inf` is returned once the result must exceed this (`+inf`: never abandon).
     pub(crate) max_cost: f32,
+    /// The local cost.
+    pub(crate) metric: Metric,
 }
 
 lanes::dispatch! {
@@ -66,14 +69,16 @@ lanes::dispatch! {
 
 #[inline(always)]
 fn kernel<const L: usize, const FMA: bool>(p: &Problem<'_>, scratch: &mut Vec<f32>) -> f32 {
-    match p.band {
-        Some(w) => strips::<L, FMA, true>(p, w, scratch),
-        None => strips::<L, FMA, false>(p, 0, scratch),
+    match (p.band, p.metric) {
+        (Some(w), Metric::L2) => strips::<L, FMA, true, false>(p, w, scratch),
+        (None, Metric::L2) => strips::<L, FMA, false, false>(p, 0, scratch),
+        (Some(w), Metric::L1) => strips::<L, FMA, true, true>(p, w, scratch),
+        (None, Metric::L1) => strips::<L, FMA, false, true>(p, 0, scratch),
     }
 }
 
 #[inline(always)]
-fn strips<const L: usize, const FMA: bool, const BANDED: bool>(
+fn strips<const L: usize, const FMA: bool, const BANDED: bool, const L1: bool>(
     p: &Problem<'_>,
     w: usize,
     scratch: &mut Vec<f32>,
@@ -111,9 +116,14 @@ fn strips<const L: usize, const FMA: bool, const BANDED: bool>(
             let at = PAD + r - 1 - s;
             let mut acc = lanes::splat::<L>(0.0);
             for (k, xk) in xs.iter().enumerate() {
-                acc = lanes::sq_diff_acc::<L, FMA>(acc, *xk, lanes::load::<L>(p.y.data, k * p.y.stride + at));
+                let yk = lanes::load::<L>(p.y.data, k * p.y.stride + at);
+                acc = if L1 {
+                    lanes::abs_diff_acc(acc, *xk, yk)
+                } else {
+                    lanes::sq_diff_acc::<L, FMA>(acc, *xk, yk)
+                };
             }
-            let mut c = lanes::sqrt(acc);
+            let mut c = if L1 { acc } else { lanes::sqrt(acc) };
             if BANDED {
                 let off = fi - s as f32;
                 c = std::array::from_fn(|k| if (off + two_k[k]).abs() > wf { inf } else { c[k] });
@@ -145,7 +155,7 @@ fn strips<const L: usize, const FMA: bool, const BANDED: bool>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lanes::Isa;
+    use crate::isa::Isa;
 
     /// Every instruction set this CPU has (the integration tests only run the detected one).
     pub(crate) fn available() -> Vec<Isa> {
@@ -182,6 +192,7 @@ mod tests {
                 cols: m,
                 band,
                 max_cost: f32::INFINITY,
+                metric: Metric::L2,
             };
             let want = crate::oracle::naive_dtw(&x, &y, dim, band);
             for isa in available() {

@@ -2,18 +2,7 @@
 //! execute (AVX-512, AVX2, portable), not only the one detected as best. Not part of the API
 //! (hidden from the docs); a kernel the CPU lacks can never be forced.
 
-use std::cell::Cell;
-
-use crate::lanes::Isa;
-use crate::lanes::detected;
-
-thread_local! {
-    static FORCED: Cell<Option<Isa>> = const { Cell::new(None) };
-}
-
-pub(crate) fn forced() -> Option<Isa> {
-    FORCED.with(Cell::get)
-}
+use crate::isa::{self, Isa, detected};
 
 fn name(isa: Isa) -> &'static str {
     match isa {
@@ -38,7 +27,7 @@ pub fn available() -> Vec<&'static str> {
 /// The kernel a DTW computed now on this thread would use.
 #[must_use]
 pub fn current() -> &'static str {
-    name(crate::lanes::isa())
+    name(isa::isa())
 }
 
 /// Runs `f` with every DTW set up on this thread computed by `kernel` (one of [`available`]);
@@ -47,16 +36,16 @@ pub fn current() -> &'static str {
 /// # Panics
 /// If this CPU cannot run `kernel` (it is not in [`available`]).
 pub fn with_kernel<R>(kernel: &str, f: impl FnOnce() -> R) -> R {
-    let isa = [Isa::Avx512, Isa::Avx2, Isa::Portable]
+    let chosen = [Isa::Avx512, Isa::Avx2, Isa::Portable]
         .into_iter()
         .find(|&i| name(i) == kernel && available().contains(&kernel))
         .unwrap_or_else(|| panic!("kernel {kernel:?} is not one this CPU runs: {:?}", available()));
     struct Restore(Option<Isa>);
     impl Drop for Restore {
         fn drop(&mut self) {
-            FORCED.with(|c| c.set(self.0));
+            isa::force(self.0);
         }
     }
-    let _restore = Restore(FORCED.with(|c| c.replace(Some(isa))));
+    let _restore = Restore(isa::force(Some(chosen)));
     f()
 }

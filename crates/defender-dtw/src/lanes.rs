@@ -2,7 +2,7 @@
 //! CPU-feature dispatch that compiles each kernel once per instruction set.
 //!
 //! Every kernel in this crate is one generic `#[inline(always)]` function over `const L` (lanes)
-//! and `const FMA`; [`Isa`] picks at run time which monomorphic copy to call, each compiled inside
+//! and `const FMA`; [`crate::isa::Isa`] picks at run time which monomorphic copy to call, each compiled inside
 //! a `#[target_feature]` wrapper so the lane arrays become AVX2 / AVX-512 registers.
 
 /// A vector of `L` lanes of `f32`.
@@ -40,6 +40,12 @@ pub(crate) fn sq_diff_acc<const L: usize, const FMA: bool>(acc: V<L>, a: V<L>, b
     })
 }
 
+/// `acc + |a - b|`.
+#[inline(always)]
+pub(crate) fn abs_diff_acc<const L: usize>(acc: V<L>, a: V<L>, b: V<L>) -> V<L> {
+    std::array::from_fn(|k| acc[k] + (a[k] - b[k]).abs())
+}
+
 #[inline(always)]
 pub(crate) fn sqrt<const L: usize>(a: V<L>) -> V<L> {
     std::array::from_fn(|k| a[k].sqrt())
@@ -59,36 +65,6 @@ pub(crate) fn load<const L: usize>(s: &[f32], at: usize) -> V<L> {
     out
 }
 
-/// The instruction set a kernel runs with, detected once.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Isa {
-    /// AVX-512F (16 lanes) with FMA.
-    Avx512,
-    /// AVX2 (8 lanes) with FMA.
-    Avx2,
-    /// Whatever the compile target has (SSE2 on x86-64), no FMA.
-    Portable,
-}
-
-impl Isa {
-    /// The best instruction set of this CPU.
-    pub(crate) fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                return Isa::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-                return Isa::Avx2;
-            }
-        }
-        Isa::Portable
-    }
-}
-
 /// Defines `$name(isa, args..) -> $ret` that calls the generic `$kernel::<L, FMA>(args..)` compiled
 /// for `isa`: 16 lanes under AVX-512, 8 under AVX2, `$portable_lanes` otherwise. `$lanes16` lets a
 /// kernel whose layout fixes the lane count (the streaming one) use 8 lanes under AVX-512 too.
@@ -96,7 +72,7 @@ macro_rules! dispatch {
     ($(#[$m:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty
         => $kernel:ident, lanes: ($l512:expr, $l2:expr, $lp:expr)) => {
         $(#[$m])*
-        $vis fn $name(isa: $crate::lanes::Isa, $($arg: $ty),*) -> $ret {
+        $vis fn $name(isa: $crate::isa::Isa, $($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx2,fma")]
@@ -107,10 +83,10 @@ macro_rules! dispatch {
                     // SAFETY: `Isa::detect` returned this variant only after checking that the CPU
                     // has every feature the wrapper enables (`kernels::with_kernel` forces only a
                     // variant whose features are a subset of the detected one's).
-                    $crate::lanes::Isa::Avx512 => return unsafe { avx512($($arg),*) },
+                    $crate::isa::Isa::Avx512 => return unsafe { avx512($($arg),*) },
                     // SAFETY: as above.
-                    $crate::lanes::Isa::Avx2 => return unsafe { avx2($($arg),*) },
-                    $crate::lanes::Isa::Portable => {}
+                    $crate::isa::Isa::Avx2 => return unsafe { avx2($($arg),*) },
+                    $crate::isa::Isa::Portable => {}
                 }
             }
             let _ = isa;
@@ -119,15 +95,3 @@ macro_rules! dispatch {
     };
 }
 pub(crate) use dispatch;
-
-/// The instruction set DTW uses: this CPU's best, detected once per process, unless this thread
-/// forces another one ([`crate::kernels::with_kernel`], for tests).
-pub(crate) fn isa() -> Isa {
-    crate::kernels::forced().unwrap_or_else(detected)
-}
-
-/// This CPU's best instruction set, detected once per process.
-pub(crate) fn detected() -> Isa {
-    static ISA: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
-    *ISA.get_or_init(Isa::detect)
-}

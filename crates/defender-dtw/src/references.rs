@@ -6,15 +6,15 @@ use std::sync::Arc;
 
 use crate::batch::Dtw;
 use crate::error::{DtwError, Result, check_finite, check_sequence};
+use crate::isa::Isa;
+use crate::isa::isa;
 use crate::kernel::{self, Problem, RevSeq};
-use crate::lanes::isa;
-use crate::lanes::{GROUP, Isa, PAD};
-use crate::stream::Stream;
+use crate::lanes::{GROUP, PAD};
 use crate::view::{QueryWindow, View};
 
 /// Many reference sequences of one dimension, aligned with one query at once.
 ///
-/// Cloning is cheap (the storage is shared), so a [`Stream`] owns a clone and needs no lifetime.
+/// Cloning is cheap (the storage is shared), so a [`crate::Stream`] owns a clone and needs no lifetime.
 #[derive(Debug, Clone)]
 pub struct References {
     pub(crate) inner: Arc<Inner>,
@@ -120,7 +120,7 @@ impl References {
 
     /// Batch DTW of the windows `view` selects: for each reference `y_i`, the cost between
     /// `query[window]` and `y_i[window]` (with `n` = the whole query's length for
-    /// [`crate::RefWindow::MatchQuery`]), written to `out[i]`. The streaming [`Stream`] gives the
+    /// [`crate::RefWindow::MatchQuery`]), written to `out[i]`. The streaming [`crate::Stream`] gives the
     /// same numbers step by step.
     ///
     /// # Errors
@@ -145,34 +145,27 @@ impl References {
         let mut scratch = Vec::new();
         for (i, o) in out.iter_mut().enumerate() {
             let cols = view.ref_len(n, self.inner.lens[i]);
-            let problem = self.problem(i, x, cols, settings.band, settings.threshold());
+            let problem = self.problem(i, x, cols, settings);
             *o = kernel::dtw_cost(self.inner.isa, &problem, &mut scratch);
         }
         Ok(())
     }
 
     /// The batch problem `x` against the last `cols` elements of reference `i`.
-    pub(crate) fn problem<'a>(
-        &'a self,
-        i: usize,
-        x: &'a [f32],
-        cols: usize,
-        band: Option<usize>,
-        max_cost: f32,
-    ) -> Problem<'a> {
+    pub(crate) fn problem<'a>(&'a self, i: usize, x: &'a [f32], cols: usize, settings: &Dtw) -> Problem<'a> {
         let inner = &*self.inner;
         let stride = inner.lens[i] + 2 * PAD;
         let start = inner.rev_start[i];
         let y = RevSeq { data: &inner.rev[start..start + inner.dim * stride], stride };
-        Problem { x, y, dim: inner.dim, cols, band, max_cost }
-    }
-
-    /// A streaming state for one episode, computing `views` after every push.
-    ///
-    /// # Errors
-    /// [`DtwError::InvalidSetting`] for a `Last(0)` window (naming the view's index).
-    pub fn stream(&self, views: &[View]) -> Result<Stream> {
-        Stream::new(self.clone(), views)
+        Problem {
+            x,
+            y,
+            dim: inner.dim,
+            cols,
+            band: settings.band,
+            max_cost: settings.threshold(),
+            metric: settings.metric,
+        }
     }
 }
 

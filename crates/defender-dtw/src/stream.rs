@@ -18,6 +18,7 @@
 //! element in the window (so that `D(0, 0) = c(0, 0)`) and `+inf` elsewhere. Padding columns
 //! have `+inf` local cost, so they stay `+inf`.
 
+use crate::batch::Dtw;
 use crate::error::Result;
 use crate::kernel;
 use crate::lanes::{self, GROUP, V};
@@ -87,6 +88,16 @@ struct ColumnWindow {
 struct Incremental {
     window: usize,
     dp: Vec<f32>,
+}
+
+impl References {
+    /// A streaming state for one episode, computing `views` after every push.
+    ///
+    /// # Errors
+    /// [`crate::DtwError::InvalidSetting`] for a `Last(0)` window (naming the view's index).
+    pub fn stream(&self, views: &[View]) -> Result<Stream> {
+        Stream::new(self.clone(), views)
+    }
 }
 
 impl Stream {
@@ -282,7 +293,7 @@ impl Stream {
                             let (g, lane) = (i / GROUP, i % GROUP);
                             inc.dp[(g * (width + 1) + width) * GROUP + lane]
                         } else {
-                            let problem = self.refs.problem(i, xq, n.min(m), None, f32::INFINITY);
+                            let problem = self.refs.problem(i, xq, n.min(m), &Dtw::euclidean());
                             kernel::dtw_cost(inner.isa, &problem, &mut self.scratch)
                         };
                     }
@@ -464,7 +475,7 @@ fn advance_kernel<const L: usize, const FMA: bool>(dp: &mut [f32], cost: &[f32],
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lanes::Isa;
+    use crate::isa::Isa;
     use crate::{Dtw, dtw};
 
     #[test]
