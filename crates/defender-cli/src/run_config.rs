@@ -342,7 +342,13 @@ mod tests {
                 "defender.cost.elements",
                 "defender.cost.metric",
                 "defender.cost.radius",
-                "defender.cost.ties"
+                "defender.cost.ties",
+                "profile",
+                "sac.bc_form",
+                "sac.bc_weight",
+                "sac.demos_in_replay",
+                "sac.terminal_on_truncation",
+                "sac.warmup"
             ]
         );
         // And it reads back as itself (the pinned copy in a checkpoint is this text).

@@ -51,10 +51,7 @@ impl CostStream {
     pub fn push(&mut self, x: &[f32]) -> Result<()> {
         match self {
             Self::Exact(s) => Ok(s.push(x)?),
-            Self::Recompute(r) => {
-                r.push(x);
-                Ok(())
-            }
+            Self::Recompute(r) => r.push(x),
         }
     }
 
@@ -79,7 +76,6 @@ pub struct Recompute {
     traj: Vec<f32>,
     pushed: usize,
     costs: Vec<Vec<f32>>,
-    scratch: Vec<f64>,
 }
 
 impl Recompute {
@@ -94,7 +90,6 @@ impl Recompute {
             traj: Vec::with_capacity(cap * dim),
             pushed: 0,
             costs: vec![vec![f32::NAN; n]; windows.len()],
-            scratch: Vec::new(),
         }
     }
 
@@ -103,7 +98,7 @@ impl Recompute {
         self.pushed = 0;
     }
 
-    fn push(&mut self, x: &[f32]) {
+    fn push(&mut self, x: &[f32]) -> Result<()> {
         self.traj.extend_from_slice(x);
         if let Some(cap) = self.options.trajectory_cap
             && self.traj.len() > cap * self.dim
@@ -118,68 +113,48 @@ impl Recompute {
                 let (xr, yr) = window.ranges(n, seq.len() / dim);
                 let x = &self.traj[xr.start * dim..xr.end * dim];
                 let y = &seq[yr.start * dim..yr.end * dim];
-                *cost = pair_cost(&self.options, x, y, dim, &mut self.scratch) as f32;
+                *cost = pair_cost(&self.options, x, y, dim)? as f32;
             }
         }
+        Ok(())
     }
 }
 
-/// The cost of aligning `x` with `y` (row-major `dim`-vectors) under `options`, in f64.
-pub(crate) fn pair_cost(options: &CostOptions, x: &[f32], y: &[f32], dim: usize, scratch: &mut Vec<f64>) -> f64 {
-    match options.dtw {
-        DtwKind::Exact => exact_dtw(x, y, dim, options.metric, scratch),
-        DtwKind::Fastdtw => exact_dtw(x, y, dim, options.metric, scratch),
-    }
-}
-
-/// Exact DTW (SPEC section 2's recursion) under `metric`, one row of the matrix at a time.
-fn exact_dtw(x: &[f32], y: &[f32], dim: usize, metric: Metric, row: &mut Vec<f64>) -> f64 {
-    let (n, m) = (x.len() / dim, y.len() / dim);
-    if n == 0 || m == 0 {
-        return f64::INFINITY;
-    }
-    let dist = |i: usize, j: usize| {
-        let (a, b) = (&x[i * dim..(i + 1) * dim], &y[j * dim..(j + 1) * dim]);
-        match metric {
-            Metric::L2 => a.iter().zip(b).map(|(p, q)| (f64::from(*p) - f64::from(*q)).powi(2)).sum::<f64>().sqrt(),
-            Metric::L1 => a.iter().zip(b).map(|(p, q)| (f64::from(*p) - f64::from(*q)).abs()).sum::<f64>(),
-        }
+/// The cost of aligning the trajectory window `x` with the demonstration window `y` (row-major
+/// `dim`-vectors) under `options`. FastDTW is not symmetric on ties: it is called as the authors'
+/// code calls it, `fastdtw(demonstration, trajectory)`.
+pub(crate) fn pair_cost(options: &CostOptions, x: &[f32], y: &[f32], dim: usize) -> Result<f64> {
+    let metric = match options.metric {
+        Metric::L2 => defender_dtw::Metric::L2,
+        Metric::L1 => defender_dtw::Metric::L1,
     };
-    row.clear();
-    row.resize(m, f64::INFINITY);
-    for i in 0..n {
-        let mut diag = if i == 0 { 0.0 } else { f64::INFINITY };
-        let mut left = f64::INFINITY;
-        for j in 0..m {
-            let up = row[j];
-            let best = if i == 0 && j == 0 { 0.0 } else { up.min(left).min(diag) };
-            let d = dist(i, j) + best;
-            diag = up;
-            row[j] = d;
-            left = d;
-        }
-    }
-    row[m - 1]
+    Ok(match options.dtw {
+        DtwKind::Exact => f64::from(defender_dtw::Dtw::euclidean().with_metric(metric).distance(x, y, dim)?),
+        DtwKind::Fastdtw => defender_dtw::FastDtw::new(options.radius, metric).distance(y, x, dim)?,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn exact(x: &[f32], y: &[f32], dim: usize, metric: Metric) -> f32 {
+        let options = CostOptions { metric, trajectory_cap: Some(100), ..CostOptions::default() };
+        pair_cost(&options, x, y, dim).unwrap() as f32
+    }
+
     #[test]
-    fn exact_dtw_matches_the_oracle_under_l2_and_hand_values_under_l1() {
-        let x = [1.0f32, 5.0];
-        let y = [0.0f32, 0.0, 0.0];
-        let mut s = Vec::new();
-        assert_eq!(exact_dtw(&x, &y, 1, Metric::L2, &mut s), 7.0);
+    fn exact_costs_follow_the_metric() {
+        assert_eq!(exact(&[1.0, 5.0], &[0.0, 0.0, 0.0], 1, Metric::L2), 7.0);
         let a = [0.0f32, 0.0, 3.0, 4.0];
         let b = [0.0f32, 0.0];
-        assert_eq!(exact_dtw(&a, &b, 2, Metric::L2, &mut s), 5.0);
-        assert_eq!(exact_dtw(&a, &b, 2, Metric::L1, &mut s), 7.0);
-        let p: Vec<f32> = (0..21).map(|i| ((i * 7) % 5) as f32 - 2.0).collect();
-        let q: Vec<f32> = (0..15).map(|i| ((i * 3) % 4) as f32 * 0.5).collect();
-        let oracle = defender_dtw::oracle::naive_dtw(&p, &q, 3, None);
-        assert!((exact_dtw(&p, &q, 3, Metric::L2, &mut s) - oracle).abs() < 1e-9);
+        assert_eq!(exact(&a, &b, 2, Metric::L2), 5.0);
+        assert_eq!(exact(&a, &b, 2, Metric::L1), 7.0);
+        let fast = CostOptions { dtw: DtwKind::Fastdtw, metric: Metric::L1, ..CostOptions::default() };
+        // The package's docstring example: fastdtw([1, 2, 3, 4, 5], [2, 3, 4]) == 2.0.
+        let x = [2.0f32, 3.0, 4.0];
+        let y = [1.0f32, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(pair_cost(&fast, &x, &y, 1).unwrap(), 2.0);
     }
 
     #[test]
@@ -188,13 +163,11 @@ mod tests {
         let options = CostOptions { trajectory_cap: Some(2), metric: Metric::L1, ..CostOptions::default() };
         let mut r = Recompute::new(seqs, 1, &[Window::Both, Window::BothW5], options);
         for v in [100.0f32, 1.0, 2.0] {
-            r.push(&[v]);
+            r.push(&[v]).unwrap();
         }
-        // The cap keeps [1, 2]: against [0,0,0] the path costs 1 + 2 + 2 (or 1+1+2) = 4 at best.
-        let mut s = Vec::new();
-        let expect = exact_dtw(&[1.0, 2.0], &[0.0, 0.0, 0.0], 1, Metric::L1, &mut s) as f32;
-        assert_eq!(r.costs[0][0], expect);
-        assert_eq!(r.costs[0][1], exact_dtw(&[1.0, 2.0], &[10.0, 10.0], 1, Metric::L1, &mut s) as f32);
+        // The cap keeps [1, 2].
+        assert_eq!(r.costs[0][0], exact(&[1.0, 2.0], &[0.0, 0.0, 0.0], 1, Metric::L1));
+        assert_eq!(r.costs[0][1], exact(&[1.0, 2.0], &[10.0, 10.0], 1, Metric::L1));
         assert_eq!(r.pushed, 3);
         r.reset();
         assert_eq!((r.pushed, r.traj.len()), (0, 0));
