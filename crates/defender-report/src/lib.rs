@@ -1,8 +1,10 @@
 #![doc = include_str!("../README.md")]
 
 mod csv;
+mod curves;
 mod discover;
 mod error;
+mod figure;
 mod io;
 mod plot;
 mod render;
