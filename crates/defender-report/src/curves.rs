@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::figure::{FONT_NAME, Figure, color, finish, range, steps_label};
+use crate::figure::{FONT_NAME, Figure, color, legend, range, steps_label};
 use crate::stats::{interpolate, linspace};
 
 /// A curve: mean over seeds on a step grid, with the min and max over seeds.
@@ -20,12 +20,16 @@ pub(crate) struct Band {
 }
 
 /// A line chart: the curves of one quantity, one [`Band`] per configuration.
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Chart {
     pub(crate) title: String,
     pub(crate) y_label: String,
     /// The y axis starts exactly here (0 for percentages: a rate is read against zero, and
     /// two plots of the same kind compare at a glance).
     pub(crate) y_from: Option<f64>,
+    /// The x axis starts here when it is left of the curves (panels side by side share their
+    /// steps axis this way).
+    pub(crate) x_from: Option<f64>,
     pub(crate) markers: bool,
     pub(crate) bands: Vec<Band>,
 }
@@ -82,11 +86,13 @@ impl Figure for Chart {
     where
         DB::ErrorType: 'static,
     {
-        draw(root, self)
+        draw(&root, self)?;
+        root.present().map_err(|e| e.to_string())
     }
 }
 
-pub(crate) fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String>
+/// Draws `chart` on `root` (a whole figure or one panel of it) without presenting it.
+pub(crate) fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, chart: &Chart) -> Result<(), String>
 where
     DB::ErrorType: 'static,
 {
@@ -95,7 +101,7 @@ where
     let fold = |f: fn(&Band) -> &Vec<f64>, init: f64, op: fn(f64, f64) -> f64| {
         chart.bands.iter().flat_map(|b| f(b).iter().copied()).fold(init, op)
     };
-    let (x0, x1) = range(
+    let (mut x0, x1) = range(
         fold(|b| &b.xs, f64::INFINITY, f64::min),
         fold(|b| &b.xs, f64::NEG_INFINITY, f64::max),
         0.0,
@@ -111,13 +117,16 @@ where
     if let Some(from) = chart.y_from {
         y0 = from;
     }
+    if let Some(from) = chart.x_from.filter(|&from| from < x0) {
+        x0 = from;
+    }
     // As many decimals as the axis needs: 4000, 12.5, 0.25.
     let y_decimals = match y1 - y0 {
         span if span >= 20.0 => 0,
         span if span >= 2.0 => 1,
         _ => 2,
     };
-    let mut plot = ChartBuilder::on(&root)
+    let mut plot = ChartBuilder::on(root)
         .caption(&chart.title, (FONT_NAME, 22))
         .margin(15)
         .x_label_area_size(50)
@@ -164,7 +173,7 @@ where
             plot.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(e)?;
         }
     }
-    finish(&mut plot, &root, SeriesLabelPosition::UpperLeft)
+    legend(&mut plot, SeriesLabelPosition::UpperLeft)
 }
 
 #[cfg(test)]

@@ -128,15 +128,27 @@ pub(crate) fn finish<'a, DB: DrawingBackend + 'a>(
 where
     DB::ErrorType: 'static,
 {
-    let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
+    legend(plot, position)?;
+    root.present().map_err(|e| e.to_string())
+}
+
+/// Draws the legend at `position`, in the style all figures share. A figure of several panels
+/// draws each panel's legend with this and presents once at the end: the SVG backend closes
+/// its document when presented, so nothing drawn after that would show.
+pub(crate) fn legend<'a, DB: DrawingBackend + 'a>(
+    plot: &mut Plot<'a, DB>,
+    position: SeriesLabelPosition,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
     plot.configure_series_labels()
         .position(position)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK.mix(0.4))
         .label_font((FONT_NAME, 14))
         .draw()
-        .map_err(e)?;
-    root.present().map_err(e)
+        .map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

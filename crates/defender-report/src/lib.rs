@@ -16,14 +16,16 @@ mod plot;
 mod render;
 mod run;
 mod stats;
+mod status;
 mod table;
 mod tradeoff;
+mod windows;
 
 pub use bootstrap::{
     Interval, LEVEL, RESAMPLES, SEED, bootstrap_ci, bootstrap_ci_with, percentile_ci, quantile,
 };
 pub use csv_out::CSV_HEADER;
-pub use discover::{RunSet, SkippedRun, find_run_dirs, load_runs};
+pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
 pub use io::write_atomic;
 pub use measures::{LAST_EVALUATIONS, STANDING_TOLERANCE, horizon, is_standing};
@@ -35,4 +37,5 @@ pub use run::{
     Summary, UPDATES_FILE, UPDATES_HEADER,
 };
 pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};
+pub use status::{SkipKind, SkippedRun, lock_holder};
 pub use table::{Row, Table};

@@ -11,10 +11,13 @@ use defender_rl::{Budget, Outcome};
 
 use crate::curves::{Band, Chart, Grid, band};
 use crate::error::{Result, io_err};
-use crate::figure::{file_safe, register_font, write_figure};
+use crate::figure::{file_safe, register_font, steps_label, write_figure};
 use crate::run::{DefenderSettings, Run};
 use crate::stats::rolling_mean;
-use crate::tradeoff;
+use crate::{tradeoff, windows};
+
+/// One seed's curve: steps and values.
+type Curve = (Vec<f64>, Vec<f64>);
 
 /// Options of [`draw_plots`].
 #[derive(Debug, Clone, PartialEq)]
@@ -27,11 +30,14 @@ pub struct PlotOptions {
     pub grid_points: usize,
     /// The training-return curve is the rolling mean of this many episodes (1: raw returns).
     pub smoothing_episodes: usize,
+    /// The window, in environment steps, of the rolling crash rate (`*_windows`); `None`: a
+    /// tenth of the steps the runs of the plot reach, to two significant digits.
+    pub crash_window: Option<u64>,
 }
 
 impl Default for PlotOptions {
     fn default() -> Self {
-        Self { width: 960, height: 600, grid_points: 200, smoothing_episodes: 10 }
+        Self { width: 960, height: 600, grid_points: 200, smoothing_episodes: 10, crash_window: None }
     }
 }
 
@@ -72,8 +78,10 @@ pub struct Plots {
 /// Draws the learning curves of `runs` into `dir` (created if needed): for each task x algorithm
 /// (x budget, when a task and algorithm were run with several), `{env}_{algo}_return`,
 /// `{env}_{algo}_crash` and `{env}_{algo}_eval`, and the final results' trade-off
-/// `{env}_{algo}_tradeoff` (% Crash against Acc Reward, one point per configuration), each as
-/// `.png` and `.svg`.
+/// `{env}_{algo}_tradeoff` (% Crash against Acc Reward, one point per configuration), and
+/// `{env}_{algo}_windows` for reading long budgets (`crate::windows`: the crash rate over a
+/// rolling window of [`PlotOptions::crash_window`] steps beside the evaluation return, twice as
+/// wide), each as `.png` and `.svg`.
 ///
 /// Each seed's curve is interpolated linearly onto a grid over the steps all seeds reached
 /// (from the latest first point to the earliest last point), so the mean never mixes a
@@ -130,28 +138,32 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let color_of = |i: usize, filter: Option<&DefenderSettings>| {
             if filter.is_none() { 0 } else { i + usize::from(!by_filter.contains_key(&None)) }
         };
-        for kind in PlotKind::ALL {
-            let mut bands = Vec::new();
-            for (i, (filter, seeds)) in by_filter.iter().enumerate() {
-                let curves: Vec<(Vec<f64>, Vec<f64>)> =
-                    seeds.iter().map(|r| curve(r, kind, options)).collect();
-                let grid = match kind {
-                    PlotKind::Evaluation => Grid::Union,
-                    _ => Grid::Linear(options.grid_points),
-                };
-                let label = label(*filter, seeds.len());
-                match band(&curves, grid) {
-                    // BTreeMap order puts the bare run (None) first: colour 0.
-                    Some((xs, mean, lo, hi)) => {
-                        bands.push(Band { label, color: color_of(i, *filter), xs, mean, lo, hi });
+        // One band per configuration of the curve `curve` gives each seed, on `grid`.
+        let bands_of =
+            |curve: &dyn Fn(&Run) -> Curve, grid: Grid, name: &str, why: &str, notes: &mut Vec<String>| {
+                let mut bands = Vec::new();
+                for (i, (filter, seeds)) in by_filter.iter().enumerate() {
+                    let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r)).collect();
+                    let label = label(*filter, seeds.len());
+                    match band(&curves, grid) {
+                        // BTreeMap order puts the bare run (None) first: colour 0.
+                        Some((xs, mean, lo, hi)) => {
+                            bands.push(Band { label, color: color_of(i, *filter), xs, mean, lo, hi });
+                        }
+                        None => notes.push(format!("{stem}_{name}: {label}: {why}; not drawn")),
                     }
-                    None => plots.notes.push(format!(
-                        "{stem}_{}: {label}: the seeds' {} share no step range; not drawn",
-                        kind.suffix(),
-                        kind.suffix()
-                    )),
                 }
-            }
+                bands
+            };
+        let mut eval_chart = None;
+        for kind in PlotKind::ALL {
+            let grid = match kind {
+                PlotKind::Evaluation => Grid::Union,
+                _ => Grid::Linear(options.grid_points),
+            };
+            let name = kind.suffix();
+            let why = format!("the seeds' {name} share no step range");
+            let bands = bands_of(&|r| curve(r, kind, options), grid, name, &why, &mut plots.notes);
             if bands.is_empty() {
                 continue;
             }
@@ -159,11 +171,45 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 title: title(env, algo, *budget, kind),
                 y_label: y_label(kind, options),
                 y_from: (kind == PlotKind::CrashRate).then_some(0.0),
+                x_from: None,
                 markers: kind == PlotKind::Evaluation,
                 bands,
             };
             let base = dir.join(format!("{stem}_{}", kind.suffix()));
             plots.files.extend(write_figure(&chart, &base, (options.width, options.height))?);
+            if kind == PlotKind::Evaluation {
+                eval_chart = Some(chart);
+            }
+        }
+        // The long-budget view: the crash rate over a rolling window beside the evaluations.
+        let all: Vec<&Run> = by_filter.values().flatten().copied().collect();
+        let window = options.crash_window.unwrap_or_else(|| windows::default_window(&all));
+        let name = "windows";
+        let bands = bands_of(
+            &|r| windows::crash_rate(&r.episodes, window),
+            Grid::Linear(options.grid_points),
+            name,
+            &format!("a seed ends before its first window of {window} steps"),
+            &mut plots.notes,
+        );
+        if let (false, Some(mut eval)) = (bands.is_empty(), eval_chart) {
+            eval.title = "evaluation return".into();
+            eval.x_from = Some(0.0);
+            let crash = Chart {
+                title: format!("crash rate over the last {} steps", steps_label(window as f64)),
+                y_label: "crashed / episodes ending in the window (%)".into(),
+                y_from: Some(0.0),
+                x_from: Some(0.0),
+                markers: false,
+                bands,
+            };
+            let figure = windows::Windows {
+                title: format!("{env}, {}, {budget}: crash rate and evaluation return", algo.to_uppercase()),
+                crash,
+                eval,
+            };
+            let base = dir.join(format!("{stem}_{name}"));
+            plots.files.extend(write_figure(&figure, &base, (2 * options.width, options.height))?);
         }
         let points = by_filter
             .iter()

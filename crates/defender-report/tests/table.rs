@@ -5,7 +5,7 @@ mod common;
 
 use common::{A, B, RunSpec, paper_fixture};
 use defender::Mode;
-use defender_report::{CSV_HEADER, Format, Row, Stat, Table, load_runs, render};
+use defender_report::{CSV_HEADER, Format, Row, SkipKind, Stat, Table, load_runs, render};
 use defender_rl::Budget;
 
 fn close(stat: &Stat, mean: f64, std: f64) -> bool {
@@ -314,7 +314,9 @@ fn incomplete_runs_are_skipped_and_reported() {
     assert_eq!(set.runs.len(), 1);
     assert_eq!(set.skipped.len(), 1);
     assert_eq!(set.skipped[0].dir, running);
-    assert!(set.skipped[0].reason.contains("incomplete"));
+    // No process holds its lock and it has no checkpoint (tests/skipped.rs has the other states).
+    assert_eq!(set.skipped[0].kind, SkipKind::Broken);
+    assert!(set.skipped[0].reason.contains("summary.json says \"complete\": false"), "{:?}", set.skipped);
     assert_eq!(Table::from_runs(&set.runs).rows[0].seeds, vec![0]);
 }
 
