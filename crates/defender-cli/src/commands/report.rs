@@ -14,6 +14,7 @@ Examples:
   defender report runs/                              Markdown tables of every run under runs/
   defender report runs/ --format latex --out tables.tex
   defender report runs/hopper runs/walker --format csv --plots plots/
+  defender report results/keeps-learning --plots plots/ --crash-window 30000 --strict
 
 Per task x algorithm x strategy, over seeds: Acc Reward (final eval) as SPEC 6; Best episode
 (the paper's Acc Reward: the best training-episode return); Last-10 eval (mean of the last 10
