@@ -36,8 +36,24 @@ fn markdown_on_stdout_from_a_parent_folder() {
     assert!(md.starts_with("# DEFENDER report\n"), "{md}");
     let row = md.lines().find(|l| l.contains("MeanDemoW5") && l.starts_with("| SAC")).unwrap();
     let cells: Vec<&str> = row.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
-    // SAC A: acc 110, 110, 140; crash 25, 0, 25 %; time 150, 150, 100 % (see common/mod.rs).
-    assert_eq!(cells, ["SAC", "MeanDemoW5", "MeanDemoW10", "120 ± 14.1", "16.7 ± 11.8", "133", "3"]);
+    // SAC A: acc 110, 110, 140; best episodes 30, 31, 32; mean evaluation 5/8 of acc; crash 25,
+    // 0, 25 %; never standing; time 150, 150, 100 % (see common/mod.rs and tests/table.rs).
+    assert_eq!(
+        cells,
+        [
+            "SAC",
+            "MeanDemoW5",
+            "MeanDemoW10",
+            "120 ± 14.1 [110, 140]",
+            "31 ± 0.8 [30, 32]",
+            "75 ± 8.8 [69, 88]",
+            "16.7 ± 11.8 [0.0, 25.0]",
+            "0 ± 0.0 [0, 0]",
+            "133",
+            "3"
+        ]
+    );
+    assert!(md.contains("| Acc Reward (final eval) | Best episode (paper's Acc Reward) |"), "{md}");
     assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
 }
 
@@ -62,12 +78,14 @@ fn latex_and_csv_to_files_and_plots() {
     let latex = std::fs::read_to_string(&tex).unwrap();
     assert!(
         latex.contains("\\toprule")
-            && latex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 50$\\pm$20.4 & 100")
+            && latex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 100")
     );
     assert!(!root.join("out/tables.tex.tmp").exists());
     let stderr = text(&out.stderr);
-    assert!(stderr.contains("wrote 16 plot files to"), "{stderr}");
+    assert!(stderr.contains("wrote 20 plot files to"), "{stderr}");
     for name in [
+        "Hopper-v5_sac_windows.png",
+        "Hopper-v5_td3_windows.svg",
         "Hopper-v5_sac_return.png",
         "Hopper-v5_td3_crash.svg",
         "Hopper-v5_td3_eval.png",
@@ -89,16 +107,93 @@ fn latex_and_csv_to_files_and_plots() {
 fn incomplete_runs_warn_and_missing_bare_runs_are_noted() {
     let root = scratch("warn");
     RunSpec::new("sac", 0, A).write(&root);
-    let running = RunSpec::new("sac", 1, A).write(&root);
-    std::fs::write(running.join("summary.json"), "{\"complete\": false}").unwrap();
+    let broken = RunSpec::new("sac", 1, A).write(&root);
+    std::fs::write(broken.join("summary.json"), "{\"complete\": false}").unwrap();
     let out = defender(&["report", root.to_str().unwrap(), "--format", "csv"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stderr = text(&out.stderr);
-    assert!(stderr.contains(&format!("warning: skipping {}: incomplete", running.display())), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "warning: skipping {}: broken (summary.json says \"complete\": false, no process holds its lock",
+            broken.display()
+        )),
+        "{stderr}"
+    );
     assert!(
         stderr
             .contains("note: % Time of Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps): no bare run")
     );
+}
+
+/// Each skipped run directory is listed with its state, in the warnings and in the report
+/// written; `--strict` refuses to write a report short of them.
+#[test]
+fn skipped_runs_are_listed_and_strict_refuses_them() {
+    let root = scratch("strict");
+    RunSpec::new("sac", 0, None).write(&root);
+    let running = RunSpec::new("sac", 1, None).write(&root);
+    std::fs::write(running.join("summary.json"), "{\"complete\": false}").unwrap();
+    // Held as `defender train` holds it, for the life of this test.
+    let _lock = defender_io::DirLock::try_acquire(&running).unwrap();
+    let stopped = RunSpec::new("sac", 2, None).write(&root);
+    std::fs::remove_file(stopped.join("summary.json")).unwrap();
+    std::fs::create_dir_all(stopped.join("checkpoint")).unwrap();
+
+    let md_path = root.join("report.md");
+    let out = defender(&["report", root.to_str().unwrap(), "--out", md_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stderr = text(&out.stderr);
+    let pid = std::process::id();
+    assert!(
+        stderr.contains(&format!(
+            "warning: skipping {}: still running (its lock .lock is held by pid {pid})",
+            running.display()
+        )),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!(
+            "warning: skipping {}: stopped (no summary.json; a checkpoint is present",
+            stopped.display()
+        )),
+        "{stderr}"
+    );
+    let md = std::fs::read_to_string(&md_path).unwrap();
+    assert!(md.contains(&format!("- Left out: {}: still running", running.display())), "{md}");
+    assert!(md.contains(&format!("- Left out: {}: stopped", stopped.display())), "{md}");
+    let seeds = md
+        .lines()
+        .find(|l| l.starts_with("| SAC"))
+        .unwrap()
+        .trim_end_matches(" |")
+        .rsplit(' ')
+        .next()
+        .unwrap();
+    assert_eq!(seeds, "1", "the row has the one complete seed: {md}");
+
+    std::fs::remove_file(&md_path).unwrap();
+    let out = defender(&["report", root.to_str().unwrap(), "--strict", "--out", md_path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.starts_with("error: --strict: 2 run directories are not complete; nothing written:\n"),
+        "{stderr}"
+    );
+    assert!(stderr.contains(&format!("  {}: still running", running.display())), "{stderr}");
+    assert!(stderr.contains(&format!("  {}: stopped", stopped.display())), "{stderr}");
+    assert!(!md_path.exists());
+    // Complete runs only: --strict changes nothing.
+    let out = defender(&["report", root.join("hopper-v5_sac_bare_s0").to_str().unwrap(), "--strict"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
+}
+
+/// The report's horizons (for Standing %) are the task registry's.
+#[test]
+fn the_report_knows_every_tasks_horizon() {
+    for spec in defender_mujoco::TASKS {
+        assert_eq!(defender_report::horizon(spec.id), Some(spec.max_episode_steps as u64), "{}", spec.id);
+    }
 }
 
 #[test]
@@ -144,6 +239,11 @@ fn help_has_an_example_and_bad_usage_is_rejected() {
     assert!(
         help.contains("--format <FORMAT>") && help.contains("--plots <DIR>") && help.contains("--out <FILE>")
     );
+    assert!(help.contains("--strict") && help.contains("--crash-window <STEPS>"), "{help}");
+    let out = defender(&["report", ".", "--crash-window", "1000"]);
+    assert_eq!(out.status.code(), Some(2), "--crash-window needs --plots");
+    let out = defender(&["report", ".", "--plots", "p", "--crash-window", "0"]);
+    assert_eq!(out.status.code(), Some(2), "a window of 0 steps");
     let out = defender(&["report"]);
     assert_eq!(out.status.code(), Some(2), "a run directory is required");
     let out = defender(&["report", ".", "--format", "html"]);

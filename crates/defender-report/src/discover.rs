@@ -3,30 +3,42 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::error::{ReportError, Result, io_err};
-use crate::run::{Run, SUMMARY_FILE};
+use defender_io::DirLock;
 
-/// A run directory that was found but left out of the report.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SkippedRun {
-    /// The run directory.
-    pub dir: PathBuf,
-    /// Why, for a warning.
-    pub reason: String,
-}
+use crate::error::{ReportError, Result, io_err};
+use crate::run::{CONFIG_FILE, EVAL_FILE, METRICS_FILE, Run, SUMMARY_FILE};
+use crate::status::{SkippedRun, has_checkpoint, lock_holder, not_complete, running};
 
 /// The runs to report on.
 #[derive(Debug, Clone, Default)]
 pub struct RunSet {
     /// Complete runs, in the order found.
     pub runs: Vec<Run>,
-    /// Incomplete runs (`"complete": false`), left out.
+    /// Run directories left out, in order: still running, stopped or broken.
     pub skipped: Vec<SkippedRun>,
 }
 
-/// Expands `paths` into run directories: a path holding `summary.json` is a run directory;
-/// otherwise its subdirectories, and theirs, are searched (one or two levels deep), so
-/// `runs/` and `runs/hopper/` both work. The result is sorted and free of duplicates.
+/// Whether `path` is a run directory, complete or not: it holds a file of the run directory
+/// (`summary.json`, `config.toml`, `metrics.csv`, `eval.csv`) or a checkpoint, or nothing but
+/// `.lock` (a `defender train` in its first seconds, before it writes `config.toml`).
+fn is_run_dir(path: &Path) -> bool {
+    if [SUMMARY_FILE, CONFIG_FILE, METRICS_FILE, EVAL_FILE].iter().any(|f| path.join(f).is_file())
+        || has_checkpoint(path)
+    {
+        return true;
+    }
+    // A sweep's directory also has a `.lock`, beside its `.sweep/` and the runs' folders.
+    let mut entries = match std::fs::read_dir(path) {
+        Ok(entries) => entries.filter_map(|e| e.ok()).map(|e| e.file_name()),
+        Err(_) => return false,
+    };
+    entries.next().is_some_and(|name| name == DirLock::FILE_NAME) && entries.next().is_none()
+}
+
+/// Expands `paths` into run directories ([`is_run_dir`]: complete, running, stopped or broken);
+/// a path that is not one has its subdirectories, and theirs, searched (one or two levels deep;
+/// hidden ones such as a sweep's `.sweep/` are not), so `runs/` and `runs/hopper/` both work.
+/// The result is sorted and free of duplicates.
 ///
 /// # Errors
 ///
@@ -58,7 +70,7 @@ pub fn find_run_dirs<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<PathBuf>> {
 }
 
 fn search(path: &Path, depth: usize, found: &mut Vec<PathBuf>) -> Result<()> {
-    if path.join(SUMMARY_FILE).is_file() {
+    if is_run_dir(path) {
         found.push(path.to_path_buf());
         return Ok(());
     }
@@ -68,7 +80,8 @@ fn search(path: &Path, depth: usize, found: &mut Vec<PathBuf>) -> Result<()> {
     let mut children = Vec::new();
     for entry in std::fs::read_dir(path).map_err(io_err(path))? {
         let entry = entry.map_err(io_err(path))?;
-        if entry.file_type().map_err(io_err(entry.path()))?.is_dir() {
+        let hidden = entry.file_name().to_string_lossy().starts_with('.');
+        if !hidden && entry.file_type().map_err(io_err(entry.path()))?.is_dir() {
             children.push(entry.path());
         }
     }
@@ -79,24 +92,33 @@ fn search(path: &Path, depth: usize, found: &mut Vec<PathBuf>) -> Result<()> {
     Ok(())
 }
 
-/// Finds the run directories under `paths` ([`find_run_dirs`]) and loads them ([`Run::load`]).
-/// Incomplete runs are not an error: they are returned in [`RunSet::skipped`] for the caller to
-/// warn about.
+/// Finds the run directories under `paths` ([`find_run_dirs`]) and loads the complete ones
+/// ([`Run::load`]). The others are not an error: they are returned in [`RunSet::skipped`], with
+/// their state, for the caller to list: still running (a process holds the directory's lock, even
+/// when its `summary.json` says complete: its files are being rewritten), stopped (no complete
+/// `summary.json`, a checkpoint present) or broken (neither).
 ///
 /// # Errors
 ///
-/// The errors of [`find_run_dirs`] and [`Run::load`] (the first bad run directory stops the
-/// report: a table silently missing a run would be wrong); [`ReportError::Duplicate`] when two
+/// The errors of [`find_run_dirs`] and [`Run::load`] (a complete run whose files are unreadable or
+/// contradict each other stops the report: a table silently missing a run would be wrong);
+/// [`ReportError::Duplicate`] when two
 /// directories hold the same experiment (task, algorithm, budget, strategy, mode, number of
 /// demonstrations, seed).
 pub fn load_runs<P: AsRef<Path>>(paths: &[P]) -> Result<RunSet> {
     let mut set = RunSet::default();
     for dir in find_run_dirs(paths)? {
+        if let Some(holder) = lock_holder(&dir) {
+            set.skipped.push(running(&dir, holder));
+            continue;
+        }
+        if !dir.join(SUMMARY_FILE).is_file() {
+            set.skipped.push(not_complete(&dir));
+            continue;
+        }
         match Run::load(&dir) {
             Ok(run) => set.runs.push(run),
-            Err(ReportError::Incomplete { dir }) => set
-                .skipped
-                .push(SkippedRun { dir, reason: "incomplete (summary.json has \"complete\": false)".into() }),
+            Err(ReportError::Incomplete { dir }) => set.skipped.push(not_complete(&dir)),
             Err(err) => return Err(err),
         }
     }

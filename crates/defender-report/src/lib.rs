@@ -1,25 +1,41 @@
 #![doc = include_str!("../README.md")]
 
+mod bootstrap;
+mod cells;
 mod csv;
+mod csv_out;
+mod curves;
 mod discover;
 mod error;
+mod figure;
 mod io;
+mod latex;
+mod markdown;
+mod measures;
 mod plot;
 mod render;
 mod run;
 mod stats;
+mod status;
 mod table;
 mod tradeoff;
+mod windows;
 
-pub use discover::{RunSet, SkippedRun, find_run_dirs, load_runs};
+pub use bootstrap::{
+    Interval, LEVEL, RESAMPLES, SEED, bootstrap_ci, bootstrap_ci_with, percentile_ci, quantile,
+};
+pub use csv_out::CSV_HEADER;
+pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
 pub use io::write_atomic;
+pub use measures::{LAST_EVALUATIONS, STANDING_TOLERANCE, horizon, is_standing};
 pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
-pub use render::{CSV_HEADER, Format, render};
+pub use render::{Format, render};
 pub use run::{
     CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow,
     EvalRow, METRICS_FILE, METRICS_HEADER, OutcomeCounts, Run, RunSettings, SUMMARY_FILE, StrategySelection,
     Summary, UPDATES_FILE, UPDATES_HEADER,
 };
-pub use stats::{Stat, interpolate, linspace, rolling_mean};
+pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};
+pub use status::{SkipKind, SkippedRun, lock_holder};
 pub use table::{Row, Table};

@@ -1,4 +1,7 @@
-//! Mean and standard deviation over seeds, and resampling curves onto a common step grid.
+//! Mean and standard deviation over seeds (with the bootstrap interval: [`Estimate`]), and
+//! resampling curves onto a common step grid.
+
+use crate::bootstrap::{Interval, bootstrap_ci};
 
 /// Mean and standard deviation of a value over seeds.
 ///
@@ -24,6 +27,23 @@ impl Stat {
         let mean = values.iter().sum::<f64>() / n;
         let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
         Some(Stat { mean, std: var.sqrt(), n: values.len() })
+    }
+}
+
+/// A value over seeds as the report prints it: mean ± std ([`Stat`]) and the 95% percentile
+/// bootstrap confidence interval of the mean (`crate::bootstrap`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Mean, population std and the number of seeds.
+    pub stat: Stat,
+    /// The 95% bootstrap interval of the mean over the seeds.
+    pub ci: Interval,
+}
+
+impl Estimate {
+    /// The estimate of `values`, one per seed; `None` when it is empty.
+    pub fn of(values: &[f64]) -> Option<Estimate> {
+        Some(Estimate { stat: Stat::of(values)?, ci: bootstrap_ci(values)? })
     }
 }
 

@@ -7,7 +7,7 @@ use defender::Mode;
 use defender_rl::Budget;
 
 use crate::run::{DefenderSettings, Run};
-use crate::stats::Stat;
+use crate::stats::{Estimate, Stat};
 
 /// One row of the table: a task, an algorithm, a budget and a strategy (or none: the bare
 /// algorithm), over the seeds run.
@@ -23,10 +23,20 @@ pub struct Row {
     pub filter: Option<DefenderSettings>,
     /// The seeds, ascending.
     pub seeds: Vec<u64>,
-    /// Acc Reward: the mean return of the final evaluation.
-    pub acc_reward: Stat,
+    /// Acc Reward (final eval), SPEC section 6: the mean return of the final evaluation.
+    pub acc_reward: Estimate,
+    /// Best episode (the paper's Acc Reward, as its authors' code computes it): the best single
+    /// training-episode return of each run ([`Run::best_episode`]); `None` when no run of the row
+    /// has a training episode, otherwise over the seeds that have one.
+    pub best_episode: Option<Estimate>,
+    /// Last-10 eval: the mean return of each run's last 10 evaluations
+    /// ([`Run::last_evaluations`]).
+    pub last_evaluations: Estimate,
     /// % Crash: crashed / all training episodes x 100.
-    pub crash_pct: Stat,
+    pub crash_pct: Estimate,
+    /// Standing %: the share of each run's evaluations in which the agent stood still
+    /// ([`Run::standing_pct`]); `None` for a task whose horizon the report does not know.
+    pub standing_pct: Option<Estimate>,
     /// Filtered / all training episodes x 100 (0 for the bare algorithm).
     pub filtered_pct: Stat,
     /// Wall-clock seconds of the runs.
@@ -103,12 +113,22 @@ impl Table {
                     }
                 }
             }
-            let (Some(acc_reward), Some(crash_pct), Some(filtered_pct), Some(wall_seconds)) = (
-                Stat::of(&values(&|r| r.acc_reward())),
-                Stat::of(&values(&|r| r.summary.crash_pct)),
+            let some =
+                |f: &dyn Fn(&Run) -> Option<f64>| -> Vec<f64> { group.iter().filter_map(|r| f(r)).collect() };
+            let (
+                Some(acc_reward),
+                Some(last_evaluations),
+                Some(crash_pct),
+                Some(filtered_pct),
+                Some(wall_seconds),
+            ) = (
+                Estimate::of(&values(&|r| r.acc_reward())),
+                Estimate::of(&values(&|r| r.last_evaluations())),
+                Estimate::of(&values(&|r| r.summary.crash_pct)),
                 Stat::of(&values(&|r| r.summary.filtered_pct)),
                 Stat::of(&values(&|r| r.summary.wall_seconds)),
-            ) else {
+            )
+            else {
                 continue; // unreachable: a group has at least one run
             };
             let row = Row {
@@ -118,7 +138,10 @@ impl Table {
                 filter: group[0].config.filter.clone(),
                 seeds,
                 acc_reward,
+                best_episode: Estimate::of(&some(&|r| r.best_episode())),
+                last_evaluations,
                 crash_pct,
+                standing_pct: Estimate::of(&some(&|r| r.standing_pct())),
                 filtered_pct,
                 wall_seconds,
                 time_pct: Stat::of(&ratios),

@@ -8,7 +8,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::plot::{FONT_NAME, Figure, color, finish, range};
+use crate::figure::{FONT_NAME, Figure, color, finish, range};
 use crate::run::Run;
 use crate::stats::Stat;
 

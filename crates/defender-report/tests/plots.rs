@@ -19,7 +19,7 @@ fn plots_are_written_as_png_and_svg() {
     names.sort();
     let mut expected = Vec::new();
     for algo in ["sac", "td3"] {
-        for kind in ["crash", "eval", "return", "tradeoff"] {
+        for kind in ["crash", "eval", "return", "tradeoff", "windows"] {
             for ext in ["png", "svg"] {
                 expected.push(format!("Hopper-v5_{algo}_{kind}.{ext}"));
             }
@@ -36,14 +36,15 @@ fn plots_are_written_as_png_and_svg() {
         let bytes = std::fs::read(path).unwrap();
         if path.extension().unwrap() == "png" {
             assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{}", path.display());
-            // IHDR: width and height, big-endian.
-            assert_eq!(u32::from_be_bytes(bytes[16..20].try_into().unwrap()), 960);
+            // IHDR: width and height, big-endian; the two-panel figure is twice as wide.
+            let wide = path.to_string_lossy().contains("windows");
+            assert_eq!(u32::from_be_bytes(bytes[16..20].try_into().unwrap()), if wide { 1920 } else { 960 });
             assert_eq!(u32::from_be_bytes(bytes[20..24].try_into().unwrap()), 600);
             assert!(bytes.len() > 10_000, "{} is only {} bytes", path.display(), bytes.len());
         } else {
             let text = String::from_utf8(bytes).unwrap();
             assert!(text.contains("<svg") && text.trim_end().ends_with("</svg>"), "{}", path.display());
-            if path.to_string_lossy().contains("tradeoff") {
+            if path.to_string_lossy().contains("tradeoff") || path.to_string_lossy().contains("windows") {
                 continue; // below
             }
             // Title, axis label and legend entries are there as text.
@@ -80,6 +81,38 @@ fn plots_are_written_as_png_and_svg() {
         "a strategy has one colour in every figure"
     );
     assert!(svg.contains("at least") || svg.contains("90% of its Acc Reward"), "the target corner's legend");
+
+    // The long-budget view: the rolling crash rate (default window: a tenth of the 400 steps the
+    // runs reach) beside the evaluation return, each with every configuration.
+    let svg = std::fs::read_to_string(out.join("Hopper-v5_sac_windows.svg")).unwrap();
+    assert!(svg.contains("Hopper-v5, SAC, 400 steps: crash rate and evaluation return"), "{svg}");
+    assert!(svg.contains("crash rate over the last 40 steps") && svg.contains("evaluation return"));
+    for label in ["(bare) [3 seeds]", "MeanDemoW5/MeanDemoW10 [3 seeds]", "MinDemoW5/MinDemoW10 [3 seeds]"] {
+        assert_eq!(svg.matches(label).count(), 2, "{label} in both panels' legends");
+    }
+    assert_eq!(svg.matches("<svg").count(), 1, "one document");
+    assert!(svg.trim_end().ends_with("</svg>"));
+}
+
+#[test]
+fn the_crash_window_can_be_set() {
+    let root = tempfile::tempdir().unwrap();
+    paper_fixture(root.path());
+    let set = load_runs(&[root.path()]).unwrap();
+    let options = PlotOptions { crash_window: Some(200), ..PlotOptions::default() };
+    let plots = draw_plots(&set.runs, root.path().join("p"), &options).unwrap();
+    assert!(plots.notes.is_empty(), "{:?}", plots.notes);
+    let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_windows.svg")).unwrap();
+    assert!(svg.contains("crash rate over the last 200 steps"), "{svg}");
+    // A window longer than the runs: no curve, a note, and no file.
+    let options = PlotOptions { crash_window: Some(10_000), ..PlotOptions::default() };
+    let plots = draw_plots(&set.runs, root.path().join("q"), &options).unwrap();
+    assert!(!root.path().join("q/Hopper-v5_sac_windows.svg").exists());
+    assert!(
+        plots.notes.iter().any(|n| n.contains("Hopper-v5_sac_windows") && n.contains("not drawn")),
+        "{:?}",
+        plots.notes
+    );
 }
 
 #[test]
@@ -89,7 +122,7 @@ fn a_single_episode_run_is_drawn_with_markers() {
     RunSpec::new("sac", 0, A).outcomes(1, 1, 0).write(root.path());
     let set = load_runs(&[root.path()]).unwrap();
     let plots = draw_plots(&set.runs, root.path().join("p"), &PlotOptions::default()).unwrap();
-    assert_eq!(plots.files.len(), 8);
+    assert_eq!(plots.files.len(), 10);
     assert!(plots.notes.is_empty());
     let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_eval.svg")).unwrap();
     assert!(svg.contains("<circle"), "{svg}");

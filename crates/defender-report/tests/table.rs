@@ -5,7 +5,7 @@ mod common;
 
 use common::{A, B, RunSpec, paper_fixture};
 use defender::Mode;
-use defender_report::{CSV_HEADER, Format, Row, Stat, Table, load_runs, render};
+use defender_report::{CSV_HEADER, Format, Row, SkipKind, Stat, Table, load_runs, render};
 use defender_rl::Budget;
 
 fn close(stat: &Stat, mean: f64, std: f64) -> bool {
@@ -54,8 +54,8 @@ fn numbers_match_hand_computed_values() {
     let r = row(&table, "sac", None);
     assert_eq!(r.seeds, vec![0, 1, 2]);
     assert_eq!(r.budget, Budget::Steps(400));
-    assert!(close(&r.acc_reward, 200.0, (20000.0f64 / 3.0).sqrt()), "{:?}", r.acc_reward);
-    assert!(close(&r.crash_pct, 50.0, (1250.0f64 / 3.0).sqrt()), "{:?}", r.crash_pct);
+    assert!(close(&r.acc_reward.stat, 200.0, (20000.0f64 / 3.0).sqrt()), "{:?}", r.acc_reward);
+    assert!(close(&r.crash_pct.stat, 50.0, (1250.0f64 / 3.0).sqrt()), "{:?}", r.crash_pct);
     assert!(close(&r.filtered_pct, 0.0, 0.0));
     assert!(close(&r.time_pct.unwrap(), 100.0, 0.0));
 
@@ -67,26 +67,26 @@ fn numbers_match_hand_computed_values() {
         (f.safe(), f.unsafe_(), f.mode, f.num_demos),
         ("MeanDemoW5", "MeanDemoW10", Mode::State, Some(50))
     );
-    assert!(close(&r.acc_reward, 120.0, 200.0f64.sqrt()));
-    assert!(close(&r.crash_pct, 50.0 / 3.0, (1250.0f64 / 9.0).sqrt()));
+    assert!(close(&r.acc_reward.stat, 120.0, 200.0f64.sqrt()));
+    assert!(close(&r.crash_pct.stat, 50.0 / 3.0, (1250.0f64 / 9.0).sqrt()));
     assert!(close(&r.filtered_pct, 100.0 / 3.0, (1250.0f64 / 9.0).sqrt()));
     assert!(close(&r.time_pct.unwrap(), 400.0 / 3.0, (5000.0f64 / 9.0).sqrt()));
     assert_eq!(r.time_pct.unwrap().n, 3);
 
     // SAC B: always -4, no crash, all filtered, twice the bare's time.
     let r = row(&table, "sac", Some("MinDemoW5/MinDemoW10"));
-    assert!(close(&r.acc_reward, -4.0, 0.0));
-    assert!(close(&r.crash_pct, 0.0, 0.0));
+    assert!(close(&r.acc_reward.stat, -4.0, 0.0));
+    assert!(close(&r.crash_pct.stat, 0.0, 0.0));
     assert!(close(&r.filtered_pct, 100.0, 0.0));
     assert!(close(&r.time_pct.unwrap(), 200.0, 0.0));
 
     // TD3 bare: acc 50, 60, 70 -> 60 +- sqrt(200/3); crash 80, 80, 40 -> 200/3 +- sqrt(3200/9).
     let r = row(&table, "td3", None);
-    assert!(close(&r.acc_reward, 60.0, (200.0f64 / 3.0).sqrt()));
-    assert!(close(&r.crash_pct, 200.0 / 3.0, (3200.0f64 / 9.0).sqrt()));
+    assert!(close(&r.acc_reward.stat, 60.0, (200.0f64 / 3.0).sqrt()));
+    assert!(close(&r.crash_pct.stat, 200.0 / 3.0, (3200.0f64 / 9.0).sqrt()));
     let r = row(&table, "td3", Some("MeanDemoW5/MeanDemoW10"));
-    assert!(close(&r.acc_reward, 80.0, 0.0));
-    assert!(close(&r.crash_pct, 20.0, 0.0));
+    assert!(close(&r.acc_reward.stat, 80.0, 0.0));
+    assert!(close(&r.crash_pct.stat, 20.0, 0.0));
     assert!(close(&r.time_pct.unwrap(), 150.0, 0.0));
     let r = row(&table, "td3", Some("MinDemoW5/MinDemoW10"));
     assert!(close(&r.time_pct.unwrap(), 300.0, 0.0));
@@ -121,7 +121,7 @@ fn missing_bare_runs_leave_time_out_with_a_note() {
     let md = render(&table, Format::Markdown);
     let td3_line = md.lines().find(|l| l.starts_with("| TD3")).unwrap();
     let td3_cells: Vec<&str> = td3_line.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
-    assert_eq!(td3_cells, ["TD3", "MinDemoW5", "MinDemoW10", "100 ± 0.0", "0.0 ± 0.0", "-", "1"], "{md}");
+    assert_eq!(td3_cells[8..], ["-", "1"], "{md}");
     assert!(md.contains("Notes:\n- % Time of Hopper-v5 SAC"), "{md}");
     let csv = render(&table, Format::Csv);
     let td3 = csv.lines().find(|l| l.starts_with("Hopper-v5,td3")).unwrap();
@@ -141,7 +141,18 @@ fn markdown_is_grouped_like_the_paper() {
     assert_eq!(headers.len(), 2, "two tables (400 and 500 steps): {md}");
     assert_eq!(
         cells(headers[0]),
-        ["Algorithm", "Safe", "Unsafe", "Acc Reward", "% Crash", "% Time", "Seeds"]
+        [
+            "Algorithm",
+            "Safe",
+            "Unsafe",
+            "Acc Reward (final eval)",
+            "Best episode (paper's Acc Reward)",
+            "Last-10 eval",
+            "% Crash",
+            "Standing %",
+            "% Time",
+            "Seeds"
+        ]
     );
     let all: Vec<Vec<String>> = md
         .lines()
@@ -149,13 +160,63 @@ fn markdown_is_grouped_like_the_paper() {
         .map(cells)
         .collect();
     assert_eq!(all.len(), 6);
-    assert_eq!(all[0], ["SAC", "-", "-", "200 ± 81.6", "50.0 ± 20.4", "100", "3"]);
-    assert_eq!(all[1], ["SAC", "MeanDemoW5", "MeanDemoW10", "120 ± 14.1", "16.7 ± 11.8", "133", "3"]);
-    assert_eq!(all[2], ["SAC", "MinDemoW5", "MinDemoW10", "-4 ± 0.0", "0.0 ± 0.0", "200", "3"]);
-    assert_eq!(all[3], ["TD3", "-", "-", "60 ± 8.2", "66.7 ± 18.9", "100", "3"]);
-    assert_eq!(all[5], ["TD3", "MinDemoW5", "MinDemoW10", "10 ± 0.0", "0.0 ± 0.0", "300", "3"]);
+    // By hand (common/mod.rs): episode i of seed s returns 10 i + s, so the best of 4 episodes is
+    // 30 + s and of 5, 40 + s; the evaluations rise linearly to Acc Reward, so the mean of all
+    // of them (fewer than 10) is 5/8 of it over 4 evaluations and 6/10 over 5; every evaluation
+    // lasts 100 steps, short of Hopper's horizon: never standing. With 3 seeds, each drawn
+    // thrice with probability 1/27 > 2.5%, the bootstrap interval is [min, max] of the seeds.
+    // (Rust rounds halves to even: 62.5 -> 62, 187.5 -> 188.)
+    assert_eq!(
+        all[0],
+        [
+            "SAC",
+            "-",
+            "-",
+            "200 ± 81.6 [100, 300]",
+            "31 ± 0.8 [30, 32]",
+            "125 ± 51.0 [62, 188]",
+            "50.0 ± 20.4 [25.0, 75.0]",
+            "0 ± 0.0 [0, 0]",
+            "100",
+            "3"
+        ]
+    );
+    assert_eq!(
+        all[1],
+        [
+            "SAC",
+            "MeanDemoW5",
+            "MeanDemoW10",
+            "120 ± 14.1 [110, 140]",
+            "31 ± 0.8 [30, 32]",
+            "75 ± 8.8 [69, 88]",
+            "16.7 ± 11.8 [0.0, 25.0]",
+            "0 ± 0.0 [0, 0]",
+            "133",
+            "3"
+        ]
+    );
+    assert_eq!(all[2][3..6], ["-4 ± 0.0 [-4, -4]", "31 ± 0.8 [30, 32]", "-2 ± 0.0 [-2, -2]"]);
+    assert_eq!(
+        all[3],
+        [
+            "TD3",
+            "-",
+            "-",
+            "60 ± 8.2 [50, 70]",
+            "41 ± 0.8 [40, 42]",
+            "36 ± 4.9 [30, 42]",
+            "66.7 ± 18.9 [40.0, 80.0]",
+            "0 ± 0.0 [0, 0]",
+            "100",
+            "3"
+        ]
+    );
+    assert_eq!(all[5][..4], ["TD3", "MinDemoW5", "MinDemoW10", "10 ± 0.0 [10, 10]"]);
+    assert_eq!(all[5][8..], ["300", "3"]);
     assert!(md.contains("### Hopper-v5, 400 steps\n") && md.contains("### Hopper-v5, 500 steps\n"));
     assert!(md.contains("population std, ddof = 0"));
+    assert!(md.contains("95% percentile bootstrap confidence interval"), "{md}");
     // Padded: every line of a table has the same width.
     let widths: Vec<usize> = md
         .lines()
@@ -189,17 +250,20 @@ fn latex_is_booktabs_with_tasks_side_by_side() {
     assert!(tex.contains("state trajectories (as the paper's Table 1)"));
     assert!(tex.contains("state-action trajectories (as the paper's Table 2)"));
     // Hopper-v5 has two budgets (400 and 500 steps), Walker2d-v5 one: three column groups.
-    assert!(tex.contains("\\begin{tabular}{llrrrrrrrrr}"), "{tex}");
-    assert!(tex.contains("& \\multicolumn{3}{c}{Hopper-v5 (400 steps)} & \\multicolumn{3}{c}{Hopper-v5 (500 steps)} & \\multicolumn{3}{c}{Walker2d-v5}"), "{tex}");
-    assert!(tex.contains("Safe & Unsafe & Acc Reward & \\% Crash & \\% Time &"));
-    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 50$\\pm$20.4 & 100 & - & - & - & 3000$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
+    // Four columns per group: both rewards, % Crash, % Time.
+    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(12))), "{tex}");
+    assert!(tex.contains("& \\multicolumn{4}{c}{Hopper-v5 (400 steps)} & \\multicolumn{4}{c}{Hopper-v5 (500 steps)} & \\multicolumn{4}{c}{Walker2d-v5}"), "{tex}");
+    assert!(tex.contains("\\cmidrule(lr){3-6} \\cmidrule(lr){7-10} \\cmidrule(lr){11-14}"), "{tex}");
+    assert!(tex.contains("Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & \\% Time &"));
+    assert!(tex.contains("Best episode: the best training-episode return of a run (the paper's Acc Reward)"));
+    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 100 & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
     assert!(
         tex.contains(
-            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 17$\\pm$11.8 & 133 & - & - & - & - & - & - \\\\"
+            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 31$\\pm$0.8 & 17$\\pm$11.8 & 133 & - & - & - & - & - & - & - & - \\\\"
         ),
         "{tex}"
     );
-    assert!(tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 0$\\pm$0.0 & 100 &"), "{tex}");
+    assert!(tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 100 &"), "{tex}");
     // The state-action table does not list the state strategies.
     let second = &tex[tex.rfind("\\begin{table}").unwrap()..];
     assert!(!second.contains("MeanDemoW5"));
@@ -250,7 +314,9 @@ fn incomplete_runs_are_skipped_and_reported() {
     assert_eq!(set.runs.len(), 1);
     assert_eq!(set.skipped.len(), 1);
     assert_eq!(set.skipped[0].dir, running);
-    assert!(set.skipped[0].reason.contains("incomplete"));
+    // No process holds its lock and it has no checkpoint (tests/skipped.rs has the other states).
+    assert_eq!(set.skipped[0].kind, SkipKind::Broken);
+    assert!(set.skipped[0].reason.contains("summary.json says \"complete\": false"), "{:?}", set.skipped);
     assert_eq!(Table::from_runs(&set.runs).rows[0].seeds, vec![0]);
 }
 
@@ -297,9 +363,9 @@ fn runs_with_different_numbers_of_demonstrations_are_separate_rows() {
         .filter(|l| l.starts_with("| SAC"))
         .map(|l| l.split('|').map(str::trim).filter(|c| !c.is_empty()).collect())
         .collect();
-    assert_eq!(rows[0][..5], ["SAC", "-", "-", "-", "100 ± 0.0"]);
-    assert_eq!(rows[1][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "10", "30 ± 0.0"]);
-    assert_eq!(rows[2][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "50", "50 ± 0.0"]);
+    assert_eq!(rows[0][..5], ["SAC", "-", "-", "-", "100 ± 0.0 [100, 100]"]);
+    assert_eq!(rows[1][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "10", "30 ± 0.0 [30, 30]"]);
+    assert_eq!(rows[2][..5], ["SAC", "MeanDemoW5", "MeanDemoW10", "50", "50 ± 0.0 [50, 50]"]);
     assert!(render(&table, Format::Latex).contains("Safe & Unsafe & Demos & Acc Reward"));
 }
 
@@ -320,7 +386,7 @@ fn zscore_runs_form_rows_of_their_own() {
     assert!(labels.contains(&A.unwrap().0.to_string()), "{labels:?}");
     assert!(labels.contains(&format!("z-score: {}", A.unwrap().0)), "{labels:?}");
     let zscore = rows.iter().find(|r| r.filter.as_ref().unwrap().zscore).unwrap();
-    assert!(close(&zscore.crash_pct, 0.0, 0.0), "{:?}", zscore.crash_pct);
+    assert!(close(&zscore.crash_pct.stat, 0.0, 0.0), "{:?}", zscore.crash_pct);
     let markdown = render(&table, Format::Markdown);
     assert!(markdown.contains("z-score: "), "{markdown}");
 }

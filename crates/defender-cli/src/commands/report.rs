@@ -7,17 +7,26 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use defender_report::{Format, PlotOptions, ReportError, Table, draw_plots, load_runs, render, write_atomic};
 
+use anyhow::bail;
+
 const AFTER_HELP: &str = "\
 Examples:
   defender report runs/                              Markdown tables of every run under runs/
   defender report runs/ --format latex --out tables.tex
   defender report runs/hopper runs/walker --format csv --plots plots/
+  defender report results/keeps-learning --plots plots/ --crash-window 30000 --strict
 
-Per task x algorithm x strategy, over seeds: Acc Reward (final evaluation return) and % Crash
-as mean ± std (population std, ddof = 0), and % Time: wall-clock time / that of the bare run
-with the same task, algorithm, budget and seed x 100 (\"-\" without a bare run). Incomplete runs
-(\"complete\": false) are skipped with a warning; any other bad run directory is an error.
-The run-directory format is docs/run-directory.md.";
+Per task x algorithm x strategy, over seeds: Acc Reward (final eval) as SPEC 6; Best episode
+(the paper's Acc Reward: the best training-episode return); Last-10 eval (mean of the last 10
+evaluations); % Crash; Standing % (evaluations that stood still); each as mean ± std
+(population std, ddof = 0) [95% percentile bootstrap interval over seeds, 50,000 resamples,
+fixed seed], with the number of seeds. % Time: wall-clock time / that of the bare run with the
+same task, algorithm, budget and seed x 100 (\"-\" without a bare run).
+
+A run directory that is not complete is left out and listed, with its state: still running
+(its lock is held), stopped (a checkpoint to resume from) or broken; --strict makes that an
+error. Any other bad run directory is an error. Definitions and the run-directory format:
+docs/run-directory.md.";
 
 /// Output format of the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -50,10 +59,20 @@ pub struct ReportArgs {
     /// Output format of the table.
     #[arg(long, value_enum, default_value_t = FormatArg::Md)]
     pub format: FormatArg,
-    /// Also draw the learning curves (training return, cumulative crash rate, evaluation return;
-    /// PNG and SVG) into DIR, created if needed.
+    /// Also draw the plots into DIR, created if needed (PNG and SVG): per task, the learning
+    /// curves (training return, cumulative crash rate, evaluation return), the trade-off of the
+    /// final results, and `*_windows`, the crash rate over a rolling window of steps beside the
+    /// evaluation return, for reading long budgets.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
+    /// The window of the rolling crash rate in `--plots` (`*_windows`), in environment steps
+    /// [default: a tenth of the steps the runs reach, to two significant digits].
+    #[arg(long, value_name = "STEPS", requires = "plots", value_parser = clap::value_parser!(u64).range(1..))]
+    pub crash_window: Option<u64>,
+    /// Fail (exit code 1, nothing written) when a run directory found is not complete (still
+    /// running, stopped or broken) instead of leaving it out with a warning.
+    #[arg(long)]
+    pub strict: bool,
     /// Write the table to FILE (atomically) instead of standard output.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -62,21 +81,36 @@ pub struct ReportArgs {
 /// Runs `defender report`.
 pub fn run(args: ReportArgs) -> anyhow::Result<()> {
     let set = load_runs(&args.runs)?;
+    if args.strict && !set.skipped.is_empty() {
+        let list: Vec<String> =
+            set.skipped.iter().map(|s| format!("  {}: {}", s.dir.display(), s.reason)).collect();
+        bail!(
+            "--strict: {} run director{} not complete; nothing written:\n{}",
+            set.skipped.len(),
+            if set.skipped.len() == 1 { "y is" } else { "ies are" },
+            list.join("\n")
+        );
+    }
     for skipped in &set.skipped {
         eprintln!("warning: skipping {}: {}", skipped.dir.display(), skipped.reason);
     }
     if set.runs.is_empty() {
         return Err(ReportError::Empty.into());
     }
-    let table = Table::from_runs(&set.runs);
+    let mut table = Table::from_runs(&set.runs);
     let format = Format::from(args.format);
-    let text = render(&table, format);
     if format == Format::Csv {
         // Markdown and LaTeX carry the notes in the output; CSV has no place for them.
         for note in &table.notes {
             eprintln!("note: {note}");
         }
+    } else if !set.skipped.is_empty() {
+        // The written report says that it is short of these runs, not only this terminal.
+        table
+            .notes
+            .extend(set.skipped.iter().map(|s| format!("Left out: {}: {}.", s.dir.display(), s.reason)));
     }
+    let text = render(&table, format);
     match &args.out {
         Some(path) => {
             if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -96,7 +130,8 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(dir) = &args.plots {
-        let plots = draw_plots(&set.runs, dir, &PlotOptions::default())?;
+        let options = PlotOptions { crash_window: args.crash_window, ..PlotOptions::default() };
+        let plots = draw_plots(&set.runs, dir, &options)?;
         for note in &plots.notes {
             eprintln!("note: {note}");
         }

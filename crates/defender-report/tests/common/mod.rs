@@ -20,6 +20,11 @@ pub struct RunSpec {
     /// to it.
     pub acc_reward: f64,
     pub wall_seconds: f64,
+    /// Episode returns instead of `10 * index + seed` (as many as `outcomes`).
+    pub returns: Option<Vec<f64>>,
+    /// Evaluations as `(mean_return, mean_length)`, one every 100 steps, instead of the rising
+    /// line; the last one's return becomes the Acc Reward.
+    pub evals: Option<Vec<(f64, f64)>>,
 }
 
 impl RunSpec {
@@ -32,6 +37,8 @@ impl RunSpec {
             outcomes: vec!["truncated"; 4],
             acc_reward: 100.0,
             wall_seconds: 10.0,
+            returns: None,
+            evals: None,
         }
     }
 
@@ -53,6 +60,20 @@ impl RunSpec {
 
     pub fn acc(mut self, acc_reward: f64) -> Self {
         self.acc_reward = acc_reward;
+        self
+    }
+
+    /// Episode returns, one per outcome.
+    pub fn returns(mut self, returns: &[f64]) -> Self {
+        assert_eq!(returns.len(), self.outcomes.len());
+        self.returns = Some(returns.to_vec());
+        self
+    }
+
+    /// Evaluations `(mean_return, mean_length)`; the last return is the Acc Reward.
+    pub fn evals(mut self, evals: &[(f64, f64)]) -> Self {
+        self.acc_reward = evals.last().unwrap().0;
+        self.evals = Some(evals.to_vec());
         self
     }
 
@@ -96,14 +117,24 @@ impl RunSpec {
         for (i, outcome) in self.outcomes.iter().enumerate() {
             let i = i as u64;
             let wall = self.wall_seconds * (i + 1) as f64 / n as f64;
-            writeln!(metrics, "{i},{},{},100,{outcome},{wall}", 100 * (i + 1), 10 * i + self.seed).unwrap();
+            let ret = self.returns.as_ref().map_or((10 * i + self.seed) as f64, |r| r[i as usize]);
+            writeln!(metrics, "{i},{},{ret:?},100,{outcome},{wall}", 100 * (i + 1)).unwrap();
         }
         std::fs::write(dir.join("metrics.csv"), metrics).unwrap();
 
         let mut eval = String::from("total_steps,mean_return,std_return,mean_length,episodes\n");
-        for k in 1..=n {
-            let mean = self.acc_reward * k as f64 / n as f64;
-            writeln!(eval, "{},{mean},1.5,100.0,10", 100 * k).unwrap();
+        match &self.evals {
+            None => {
+                for k in 1..=n {
+                    let mean = self.acc_reward * k as f64 / n as f64;
+                    writeln!(eval, "{},{mean},1.5,100.0,10", 100 * k).unwrap();
+                }
+            }
+            Some(evals) => {
+                for (k, (mean, length)) in evals.iter().enumerate() {
+                    writeln!(eval, "{},{mean:?},1.5,{length:?},10", 100 * (k + 1)).unwrap();
+                }
+            }
         }
         std::fs::write(dir.join("eval.csv"), eval).unwrap();
 

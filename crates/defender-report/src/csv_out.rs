@@ -1,0 +1,104 @@
+//! The report as CSV: one row per task x algorithm x budget x strategy, with mean, std and
+//! bootstrap-interval columns, for scripts.
+
+use defender_rl::Budget;
+
+use crate::stats::Estimate;
+use crate::table::Table;
+
+/// The CSV columns: mean and std (population, ddof = 0) over the row's `n_seeds` seeds;
+/// `_ci_lo`/`_ci_hi` bound the 95% percentile bootstrap interval of the mean (`crate::bootstrap`).
+/// Columns added after the first release go at the end, so that scripts reading by position
+/// keep working; an empty field is a value the row does not have.
+pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
+n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
+filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
+acc_reward_ci_lo,acc_reward_ci_hi,best_episode_mean,best_episode_std,best_episode_ci_lo,best_episode_ci_hi,\
+last10_eval_mean,last10_eval_std,last10_eval_ci_lo,last10_eval_ci_hi,crash_pct_ci_lo,crash_pct_ci_hi,\
+standing_pct_mean,standing_pct_std,standing_pct_ci_lo,standing_pct_ci_hi";
+
+pub(crate) fn csv(table: &Table) -> String {
+    let mut out = String::from(CSV_HEADER);
+    out.push('\n');
+    for row in &table.rows {
+        let (steps, episodes) = match row.budget {
+            Budget::Steps(n) => (n.to_string(), String::new()),
+            Budget::Episodes(n) => (String::new(), n.to_string()),
+        };
+        let (strategy, safe, unsafe_, mode, demos) = match &row.filter {
+            None => Default::default(),
+            Some(f) => (
+                f.strategy.clone(),
+                f.safe().to_string(),
+                f.unsafe_().to_string(),
+                f.mode.to_string(),
+                f.num_demos.map(|n| n.to_string()).unwrap_or_default(),
+            ),
+        };
+        let seeds: Vec<String> = row.seeds.iter().map(u64::to_string).collect();
+        let (time_mean, time_std, time_n) = row
+            .time_pct
+            .map_or((String::new(), String::new(), 0), |t| (t.mean.to_string(), t.std.to_string(), t.n));
+        let fields = [
+            row.env.clone(),
+            row.algo.clone(),
+            steps,
+            episodes,
+            strategy,
+            safe,
+            unsafe_,
+            mode,
+            demos,
+            row.seeds.len().to_string(),
+            seeds.join(";"),
+            row.acc_reward.stat.mean.to_string(),
+            row.acc_reward.stat.std.to_string(),
+            row.crash_pct.stat.mean.to_string(),
+            row.crash_pct.stat.std.to_string(),
+            row.filtered_pct.mean.to_string(),
+            row.filtered_pct.std.to_string(),
+            time_mean,
+            time_std,
+            time_n.to_string(),
+            row.wall_seconds.mean.to_string(),
+            row.wall_seconds.std.to_string(),
+        ];
+        let mut fields: Vec<String> = fields.into_iter().collect();
+        fields.extend(interval(Some(&row.acc_reward)));
+        fields.extend(mean_std(row.best_episode.as_ref()));
+        fields.extend(interval(row.best_episode.as_ref()));
+        fields.extend(mean_std(Some(&row.last_evaluations)));
+        fields.extend(interval(Some(&row.last_evaluations)));
+        fields.extend(interval(Some(&row.crash_pct)));
+        fields.extend(mean_std(row.standing_pct.as_ref()));
+        fields.extend(interval(row.standing_pct.as_ref()));
+        let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
+        out.push_str(&fields.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+fn mean_std(estimate: Option<&Estimate>) -> [String; 2] {
+    estimate.map_or_else(Default::default, |e| [e.stat.mean.to_string(), e.stat.std.to_string()])
+}
+
+fn interval(estimate: Option<&Estimate>) -> [String; 2] {
+    estimate.map_or_else(Default::default, |e| [e.ci.lo.to_string(), e.ci.hi.to_string()])
+}
+
+/// Quotes a field that holds a comma, a quote or a newline (RFC 4180).
+fn csv_field(text: String) -> String {
+    if text.contains([',', '"', '\n']) { format!("\"{}\"", text.replace('"', "\"\"")) } else { text }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quotes() {
+        assert_eq!(csv_field("a,b".into()), "\"a,b\"");
+        assert_eq!(csv_field("ab".into()), "ab");
+    }
+}

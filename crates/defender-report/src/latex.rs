@@ -1,0 +1,146 @@
+//! The report as LaTeX (booktabs): one table per trajectory mode, tasks side by side, laid out
+//! like the paper's Tables 1 and 2.
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+
+use defender_rl::Budget;
+
+use crate::cells::{mode_title, pm, sections, time};
+use crate::run::DefenderSettings;
+use crate::table::{Row, Table};
+
+fn tex_escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '%' | '&' | '_' | '#' | '$' | '{' | '}' => {
+                out.push('\\');
+                out.push(c);
+            }
+            '~' => out.push_str("\\textasciitilde{}"),
+            '^' => out.push_str("\\textasciicircum{}"),
+            '\\' => out.push_str("\\textbackslash{}"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// Columns per task: Acc Reward (final eval), Best episode (the paper's Acc Reward), % Crash,
+/// % Time.
+const PER_TASK: usize = 4;
+
+/// The LaTeX report of `table`.
+pub(crate) fn latex(table: &Table) -> String {
+    let demos = table.varies_num_demos();
+    let labels = if demos { 3 } else { 2 };
+    let mut out =
+        String::from("% defender report: needs \\usepackage{booktabs} and \\usepackage{graphicx}\n");
+    for mode in sections(table) {
+        let rows: Vec<&Row> = table.rows_for(mode).collect();
+        // Columns: one group of PER_TASK per (task, budget); the budget is named only when a task
+        // has several.
+        let columns: Vec<(&str, Budget)> =
+            rows.iter().map(|r| (r.env.as_str(), r.budget)).collect::<BTreeSet<_>>().into_iter().collect();
+        let column_title = |env: &str, budget: Budget| {
+            if columns.iter().filter(|(e, _)| *e == env).count() > 1 {
+                format!("{} ({budget})", tex_escape(env))
+            } else {
+                tex_escape(env)
+            }
+        };
+        let _ = write!(
+            out,
+            "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
+             (final eval): mean return of the final evaluation; Best episode: the best training-episode \
+             return of a run (the paper's Acc Reward); mean $\\pm$ std over seeds.}}\n\
+             \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
+            tex_escape(mode_title(mode)),
+            "l".repeat(labels),
+            "r".repeat(PER_TASK * columns.len())
+        );
+        out.push_str(&" & ".repeat(labels - 1));
+        for (env, budget) in &columns {
+            let _ = write!(out, " & \\multicolumn{{{PER_TASK}}}{{c}}{{{}}}", column_title(env, *budget));
+        }
+        out.push_str(" \\\\\n");
+        for i in 0..columns.len() {
+            let first = labels + 1 + PER_TASK * i;
+            let _ = write!(out, "\\cmidrule(lr){{{first}-{}}} ", first + PER_TASK - 1);
+        }
+        out.push_str(if demos { "\nSafe & Unsafe & Demos" } else { "\nSafe & Unsafe" });
+        for _ in &columns {
+            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & \\% Time");
+        }
+        out.push_str(" \\\\\n");
+        let algos: Vec<&str> =
+            rows.iter().map(|r| r.algo.as_str()).collect::<BTreeSet<_>>().into_iter().collect();
+        for algo in algos {
+            out.push_str("\\midrule\n");
+            let filters: Vec<Option<&DefenderSettings>> = rows
+                .iter()
+                .filter(|r| r.algo == algo)
+                .map(|r| r.filter.as_ref())
+                .collect::<BTreeSet<_>>()
+                .into_iter()
+                .collect();
+            for filter in filters {
+                match filter {
+                    None => {
+                        let _ = write!(
+                            out,
+                            "\\multicolumn{{{labels}}}{{l}}{{{}}}",
+                            tex_escape(&algo.to_uppercase())
+                        );
+                    }
+                    Some(f) => {
+                        let _ = write!(out, "{} & {}", tex_escape(&f.safe_cell()), tex_escape(f.unsafe_()));
+                        if demos {
+                            let _ = write!(out, " & {}", f.num_demos.map_or("?".into(), |n| n.to_string()));
+                        }
+                    }
+                }
+                for (env, budget) in &columns {
+                    let cell = rows.iter().find(|r| {
+                        r.algo == algo && r.env == *env && r.budget == *budget && r.filter.as_ref() == filter
+                    });
+                    match cell {
+                        Some(r) => {
+                            let _ = write!(
+                                out,
+                                " & {} & {} & {} & {}",
+                                pm(&r.acc_reward.stat, 0, "$\\pm$"),
+                                r.best_episode.map_or_else(|| "-".into(), |b| pm(&b.stat, 0, "$\\pm$")),
+                                pm(&r.crash_pct.stat, 0, "$\\pm$"),
+                                time(r)
+                            );
+                        }
+                        None => out.push_str(&" & -".repeat(PER_TASK)),
+                    }
+                }
+                out.push_str(" \\\\\n");
+                if filter.is_none() {
+                    out.push_str("\\cmidrule(lr){1-");
+                    let _ = writeln!(out, "{}}}", labels + PER_TASK * columns.len());
+                }
+            }
+        }
+        out.push_str("\\bottomrule\n\\end{tabular}}\n\\end{table}\n");
+    }
+    for note in &table.notes {
+        let _ = writeln!(out, "% Note: {note}");
+    }
+    out
+}
+
+/// The CSV columns.
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escapes() {
+        assert_eq!(tex_escape("a_b 50% & c"), "a\\_b 50\\% \\& c");
+    }
+}

@@ -1,0 +1,123 @@
+//! The report as Markdown: per trajectory mode and task, one table padded to read well in a
+//! terminal, then what each column means and the notes.
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+
+use defender_rl::Budget;
+
+use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, sections, time};
+use crate::run::DefenderSettings;
+use crate::table::Table;
+
+/// What the columns mean, printed under the tables (docs/run-directory.md has the same
+/// definitions).
+const LEGEND: &str = "
+Acc Reward (final eval): mean return of the final evaluation (SPEC section 6; deterministic \
+policy, 10 episodes). Best episode (paper's Acc Reward): the best single training-episode return \
+of the run, filtered episodes included (what the paper's code reports as Acc Reward). Last-10 \
+eval: mean return of the run's last 10 evaluations (all of them if it has fewer). % Crash: \
+crashed / all training episodes x 100. Standing %: evaluations in which the agent stood still \
+(every episode lasted the task's horizon, 1000 steps, and the mean return is within 10% of the \
+mean length) / all evaluations x 100; - for a task of unknown horizon. Each is mean ± std over \
+the row's seeds (population std, ddof = 0) [95% percentile bootstrap confidence interval of the \
+mean: the seeds resampled with replacement 50,000 times, fixed seed; with 3 seeds it is coarse, \
+and rows whose intervals overlap are not told apart]. Seeds: runs in the row. % Time: \
+wall-clock time / that of the bare run with the same task, algorithm, budget and seed x 100, \
+averaged over seeds.
+";
+
+/// The Markdown report of `table`.
+pub(crate) fn markdown(table: &Table) -> String {
+    let demos = table.varies_num_demos();
+    let mut out = String::from("# DEFENDER report\n");
+    for mode in sections(table) {
+        let _ = write!(out, "\n## {}\n", capitalise(mode_title(mode)));
+        let columns: BTreeSet<(&str, Budget)> =
+            table.rows_for(mode).map(|r| (r.env.as_str(), r.budget)).collect();
+        for (env, budget) in columns {
+            let _ = write!(out, "\n### {env}, {budget}\n\n");
+            let mut header = vec!["Algorithm", "Safe", "Unsafe"];
+            if demos {
+                header.push("Demos");
+            }
+            let labels = header.len();
+            header.extend([
+                "Acc Reward (final eval)",
+                "Best episode (paper's Acc Reward)",
+                "Last-10 eval",
+                "% Crash",
+                "Standing %",
+                "% Time",
+                "Seeds",
+            ]);
+            let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+            for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
+                let (safe, unsafe_) = row
+                    .filter
+                    .as_ref()
+                    .map_or(("-".to_string(), "-"), |f: &DefenderSettings| (f.safe_cell(), f.unsafe_()));
+                let mut line = vec![row.algo.to_uppercase(), safe, unsafe_.to_string()];
+                if demos {
+                    line.push(demos_text(row));
+                }
+                line.extend([
+                    pm_ci(&row.acc_reward, 0),
+                    pm_ci_or_dash(row.best_episode.as_ref(), 0),
+                    pm_ci(&row.last_evaluations, 0),
+                    pm_ci(&row.crash_pct, 1),
+                    pm_ci_or_dash(row.standing_pct.as_ref(), 0),
+                    time(row),
+                    row.seeds.len().to_string(),
+                ]);
+                cells.push(line);
+            }
+            write_padded(&mut out, &cells, labels);
+        }
+    }
+    out.push_str(LEGEND);
+    if !table.notes.is_empty() {
+        out.push_str("\nNotes:\n");
+        for note in &table.notes {
+            let _ = writeln!(out, "- {note}");
+        }
+    }
+    out
+}
+
+fn capitalise(text: &str) -> String {
+    let mut chars = text.chars();
+    chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
+}
+
+/// Writes a Markdown table with columns padded to equal width; the first `left` columns are
+/// left-aligned, the others right-aligned.
+fn write_padded(out: &mut String, cells: &[Vec<String>], left: usize) {
+    let columns = cells.first().map_or(0, Vec::len);
+    let widths: Vec<usize> =
+        (0..columns).map(|c| cells.iter().map(|r| r[c].chars().count()).max().unwrap_or(0).max(3)).collect();
+    for (i, row) in cells.iter().enumerate() {
+        out.push('|');
+        for (c, cell) in row.iter().enumerate() {
+            let w = widths[c];
+            if c < left {
+                let _ = write!(out, " {cell:<w$} |");
+            } else {
+                let _ = write!(out, " {cell:>w$} |");
+            }
+        }
+        out.push('\n');
+        if i == 0 {
+            out.push('|');
+            for (c, w) in widths.iter().enumerate() {
+                let dashes = "-".repeat(*w);
+                if c < left {
+                    let _ = write!(out, " {dashes} |");
+                } else {
+                    let _ = write!(out, " {}: |", &dashes[1..]);
+                }
+            }
+            out.push('\n');
+        }
+    }
+}
