@@ -2,8 +2,10 @@
 //! rank the 576 filtering strategies offline, report the paper's tables and plots, and measure.
 
 mod commands;
+mod cost_meter;
 #[cfg(test)]
 mod fuzz;
+mod inert;
 mod progress;
 mod resume;
 mod run_config;
@@ -11,6 +13,7 @@ mod run_dir;
 mod setup;
 mod signals;
 mod sweep;
+mod tensorboard;
 mod text_table;
 mod update_log;
 

@@ -39,6 +39,8 @@ pub struct Built {
     pub defender: Option<DefenderSection>,
     /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
     pub dynamics: Option<defender::DynamicsHandle>,
+    /// DEFENDER's alignment costs as the run goes (for its TensorBoard scalars).
+    pub costs: Option<crate::cost_meter::SharedCosts>,
 }
 
 /// Whether a run trains DEFENDER's dynamics model on a thread of its own: when its configuration
@@ -60,7 +62,14 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
     let agent = algo.build(obs_dim, act_dim, seed)?;
     let Some(section) = section else {
-        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None });
+        return Ok(Built {
+            agent,
+            env: Box::new(task),
+            eval_env,
+            defender: None,
+            dynamics: None,
+            costs: None,
+        });
     };
     let mut section = section.clone();
     let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
@@ -106,7 +115,15 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
     let dynamics = Some(wrapped.dynamics_handle());
-    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section), dynamics })
+    let (metered, costs) = crate::cost_meter::CostMeter::new(wrapped);
+    Ok(Built {
+        agent,
+        env: Box::new(metered),
+        eval_env,
+        defender: Some(section),
+        dynamics,
+        costs: Some(costs),
+    })
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

@@ -18,6 +18,7 @@ use crate::run_config::{DefenderSection, RunConfig, default_checkpoint_seconds, 
 use crate::run_dir::{self, RunDir};
 use crate::setup::{self, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
+use crate::tensorboard::board::{self, TrainingBoard};
 use crate::update_log::{self, UpdateLog};
 
 /// Arguments of `defender train`.
@@ -135,6 +136,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             defender: None,
             sac: None,
             td3: None,
+            log: Default::default(),
         },
     };
     apply_flags(config, args)
@@ -253,6 +255,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
             args.out.display()
         );
     }
+    for warning in crate::inert::warnings(&config) {
+        eprintln!("warning: {warning}");
+    }
     let built = setup::build(&config.env, &config.algo_config(), config.seed, config.defender.as_ref())?;
     // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
     // records.
@@ -284,12 +289,16 @@ pub fn run(args: TrainArgs) -> Result<()> {
         RunDir::create(&args.out, &[], &[], 0, built.dynamics.is_some())?
     };
     let mut hooks = TrainHooks::new(run_dir, &config, budget, stop.clone(), recorder, built.dynamics);
+    hooks.costs = built.costs;
     if resuming {
         trainer.resume(&checkpoint_dir, &mut hooks)?;
         if trainer.config().budget != budget {
             trainer.set_budget(budget).context("--resume")?;
         }
         hooks.restart(trainer.episodes(), trainer.evaluations(), trainer.total_steps())?;
+    } else if config.log.tensorboard {
+        let r_task = config.defender.as_ref().and_then(|d| d.r_task);
+        hooks.board = Some(TrainingBoard::create(&args.out, hooks.costs.clone(), r_task)?);
     }
     hooks.run_dir.write_config(&config)?;
     hooks.write_summary(&trainer, None)?;
@@ -367,6 +376,11 @@ struct TrainHooks {
     recorder: Option<TrainingRecorder>,
     updates: UpdateLog,
     dynamics: Option<defender::DynamicsHandle>,
+    /// The TensorBoard event file (none with `[log] tensorboard = false`).
+    board: Option<TrainingBoard>,
+    /// What the checkpoint being resumed recorded of the event file.
+    board_saved: Option<board::Saved>,
+    costs: Option<crate::cost_meter::SharedCosts>,
     error: Option<anyhow::Error>,
 }
 
@@ -393,6 +407,9 @@ impl TrainHooks {
             recorder,
             updates: UpdateLog::default(),
             dynamics,
+            board: None,
+            board_saved: None,
+            costs: None,
             error: None,
         }
     }
@@ -400,6 +417,18 @@ impl TrainHooks {
     /// After a resume: the files restart from the checkpoint's records.
     fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
         self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals, steps, self.dynamics.is_some())?;
+        if self.config.log.tensorboard {
+            let r_task = self.config.defender.as_ref().and_then(|d| d.r_task);
+            self.board = Some(TrainingBoard::resume(
+                self.run_dir.root(),
+                self.board_saved.as_ref(),
+                episodes,
+                evals,
+                steps,
+                self.costs.clone(),
+                r_task,
+            )?);
+        }
         for r in episodes {
             self.counts.add(r.outcome());
         }
@@ -444,7 +473,10 @@ impl Hooks for TrainHooks {
             && self.error.is_none()
         {
             // Hooks of a step cannot fail; the error stops the run at the episode's end.
-            self.error = self.run_dir.append_updates(&row).err();
+            self.error = self.run_dir.append_updates(&row.to_csv()).err();
+            if let (Some(board), None) = (&mut self.board, &self.error) {
+                self.error = board.updates(&row).err();
+            }
         }
     }
 
@@ -452,16 +484,26 @@ impl Hooks for TrainHooks {
         if self.by_steps {
             self.bar.set_position(total_steps);
         }
+        if self.error.is_some() || !total_steps.is_multiple_of(update_log::EVERY) {
+            return;
+        }
         // Only at a row: a model trained on its own thread is waited for there.
-        if let (Some(handle), None, true) =
-            (&self.dynamics, &self.error, total_steps.is_multiple_of(update_log::EVERY))
-        {
-            // Hooks of a step cannot fail; the error stops the run at the episode's end.
-            self.error = match handle.read(|model| update_log::dynamics_row(total_steps, model)) {
-                Ok(Some(row)) => self.run_dir.append_dynamics(&row).err(),
-                Ok(None) => None,
-                Err(e) => Some(e.into()),
-            };
+        // Hooks of a step cannot fail; the error stops the run at the episode's end.
+        let row = match &self.dynamics {
+            Some(handle) => match handle.read(|model| update_log::dynamics_row(total_steps, model)) {
+                Ok(row) => row,
+                Err(e) => {
+                    self.error = Some(e.into());
+                    return;
+                }
+            },
+            None => None,
+        };
+        if let Some(row) = &row {
+            self.error = self.run_dir.append_dynamics(&row.to_csv()).err();
+        }
+        if let (Some(board), None) = (&mut self.board, &self.error) {
+            self.error = board.window(total_steps, row.as_ref()).err();
         }
     }
 
@@ -478,6 +520,9 @@ impl Hooks for TrainHooks {
         }
         self.counts.add(record.outcome());
         self.run_dir.append_episode(record)?;
+        if let Some(board) = &mut self.board {
+            board.episode(record)?;
+        }
         if let Some(recorder) = &mut self.recorder {
             recorder.end_episode(record)?;
         }
@@ -496,6 +541,9 @@ impl Hooks for TrainHooks {
 
     fn on_evaluation(&mut self, record: &EvalRecord) -> Result<(), HookError> {
         self.run_dir.append_eval(record)?;
+        if let Some(board) = &mut self.board {
+            board.evaluation(record)?;
+        }
         Ok(())
     }
 
@@ -508,6 +556,9 @@ impl Hooks for TrainHooks {
             .map_err(|(path, e)| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
         if let Some(recorder) = &self.recorder {
             recorder.save_checkpoint(dir)?;
+        }
+        if let Some(board) = &mut self.board {
+            board.save(dir)?;
         }
         Ok(())
     }
@@ -524,6 +575,7 @@ impl Hooks for TrainHooks {
         if let Some(recorder) = &mut self.recorder {
             recorder.load_checkpoint(dir)?;
         }
+        self.board_saved = TrainingBoard::load(dir)?;
         Ok(())
     }
 
