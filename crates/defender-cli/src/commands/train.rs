@@ -305,6 +305,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
 
     let end = trainer.run(&mut hooks)?;
     hooks.bar.finish_and_clear();
+    if let Some(board) = &mut hooks.board {
+        board.flush()?;
+    }
     let final_eval = match &end {
         RunEnd::Complete(eval) => Some(eval.clone()),
         RunEnd::Stopped => None,

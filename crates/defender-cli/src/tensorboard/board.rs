@@ -36,6 +36,11 @@ use crate::update_log::{DynamicsRow, UpdateRow};
 pub const CHECKPOINT_FILE: &str = "tensorboard.json";
 /// Episodes in the recent rates and means (Stable-Baselines3's `stats_window_size`).
 pub const WINDOW: usize = 100;
+/// Seconds between flushes of the event file as episodes end (TensorBoard reloads every 5 s by
+/// default): a flush per episode would be a system call per episode, measurable on tasks whose
+/// random-policy episodes last a few steps (docs/benchmarks.md). Checkpoints and the run's end
+/// always flush.
+const FLUSH_SECONDS: f64 = 1.0;
 /// The prefix of TensorBoard's event files.
 const PREFIX: &str = "events.out.tfevents.";
 
@@ -133,6 +138,7 @@ pub struct TrainingBoard {
     rates: Rates,
     costs: Option<SharedCosts>,
     clock: (Instant, u64),
+    flushed: Instant,
 }
 
 impl TrainingBoard {
@@ -150,7 +156,7 @@ impl TrainingBoard {
             file.scalars(0, wall, &[("defender/r_task", r)])?;
         }
         file.flush()?;
-        Ok(Self { file, rates: Rates::default(), costs, clock: (Instant::now(), 0) })
+        Ok(Self { file, rates: Rates::default(), costs, clock: (Instant::now(), 0), flushed: Instant::now() })
     }
 
     /// Continues the event file of a resumed run from what its checkpoint recorded (`saved`):
@@ -188,7 +194,7 @@ impl TrainingBoard {
                 for r in episodes {
                     rates.add(r.outcome(), r.episode_return, r.length);
                 }
-                Self { file, rates, costs, clock: (Instant::now(), steps) }
+                Self { file, rates, costs, clock: (Instant::now(), steps), flushed: Instant::now() }
             }
             None => {
                 let mut board = Self::create(dir, costs, r_task)?;
@@ -228,7 +234,7 @@ impl TrainingBoard {
     /// # Errors
     /// A file that cannot be written.
     pub fn save(&mut self, extra: &Path) -> Result<()> {
-        self.file.flush()?;
+        self.flush()?;
         let saved = Saved {
             file: self.file_name(),
             offset: self.file.offset(),
@@ -243,13 +249,26 @@ impl TrainingBoard {
         self.file.path().file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned())
     }
 
-    /// A finished training episode (flushed, so TensorBoard sees it).
+    /// A finished training episode (flushed at most every `FLUSH_SECONDS`, so TensorBoard sees
+    /// it live).
     ///
     /// # Errors
     /// A file that cannot be written.
     pub fn episode(&mut self, r: &EpisodeRecord) -> Result<()> {
         let values = self.rates.add(r.outcome(), r.episode_return, r.length);
         self.file.scalars(r.total_steps, now(), &values)?;
+        if self.flushed.elapsed().as_secs_f64() >= FLUSH_SECONDS {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Writes what is buffered into the file.
+    ///
+    /// # Errors
+    /// A file that cannot be written.
+    pub fn flush(&mut self) -> Result<()> {
+        self.flushed = Instant::now();
         self.file.flush()
     }
 
@@ -259,7 +278,7 @@ impl TrainingBoard {
     /// A file that cannot be written.
     pub fn evaluation(&mut self, r: &EvalRecord) -> Result<()> {
         self.file.scalars(r.total_steps, now(), &eval_scalars(r.mean_return, r.std_return, r.mean_length))?;
-        self.file.flush()
+        self.flush()
     }
 
     /// An `updates.csv` row.

@@ -5,7 +5,7 @@
 //! `tensorflow/core/framework/summary.proto`); each record is framed as TFRecord does: the
 //! length (u64, little-endian), its masked CRC-32C, the bytes, their masked CRC-32C.
 //!
-//! A file is appended to as training goes and flushed at every episode end, so a run can be
+//! A file is appended to as training goes and flushed about every second (see `board`), so a run can be
 //! watched live; [`EventFile::offset`] is the length of what has been written, which a checkpoint
 //! records so that a resumed run truncates what came after it (docs/decisions.md).
 
