@@ -179,3 +179,11 @@ def test_train_warns_when_the_agent_would_never_update(binary, tmp_path):
     done = train(binary, config(tmp_path, steps=400), tmp_path / "inert")
     assert "warning: [sac] learning_starts = 500 is at or beyond the budget of 400 steps" in done.stderr
     assert (tmp_path / "inert" / "updates.csv").read_text().count("\n") == 1
+
+
+def test_the_sb3_extra_brings_tensorboard():
+    # SB3's `tensorboard_log=` needs it; `pip install ".[sb3]"` must bring it.
+    import tomllib
+
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert any(req.startswith("tensorboard") for req in extras["sb3"]), extras["sb3"]

@@ -30,8 +30,8 @@ use crate::update_log::{self, UpdateLog};
   defender train --out runs/x --resume                  (continue a stopped run)
 
 Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
-The run directory gets config.toml, metrics.csv, eval.csv, summary.json and checkpoint/
-(docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
+The run directory gets config.toml, metrics.csv, eval.csv, summary.json, checkpoint/ and a
+TensorBoard event file (`tensorboard --logdir`; [log] tensorboard = false: none) (docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
 a checkpoint (exit code 130/143/129); a checkpoint is also written every 2 minutes, so --resume
 continues even after a kill -9. A resumed run keeps its configuration: only --steps/--episodes
 may extend its budget.")]
