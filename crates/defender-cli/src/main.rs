@@ -3,6 +3,7 @@
 
 mod commands;
 mod cost_meter;
+mod demo_horizon;
 #[cfg(test)]
 mod fuzz;
 mod inert;

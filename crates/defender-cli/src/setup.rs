@@ -91,6 +91,11 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
         );
     }
     let demos = EpisodeSet::load(&path)?;
+    if let Some(warning) =
+        task.max_episode_steps().and_then(|h| crate::demo_horizon::warning(&demos, h, section.num_demos))
+    {
+        eprintln!("warning: {}: {warning}", path.display());
+    }
     if section.strategy == StrategyChoice::Auto {
         let (strategy, scaling, record) = crate::commands::select::choose_for_run(
             &demos,
