@@ -49,7 +49,7 @@ def _warn_statistics_inside(env: gym.Env) -> None:
                         "make_vec_env(lambda: DefenderWrapper(gym.make(ENV_ID), demos), n_envs=N) "
                         "(README, Stable-Baselines3)",
                         UserWarning,
-                        stacklevel=4,
+                        stacklevel=3,  # the caller of DefenderWrapper(...)
                     )
         e = getattr(e, "env", None) if isinstance(e, gym.Wrapper) else None
 
