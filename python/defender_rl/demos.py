@@ -2,8 +2,10 @@
 
 The procedure: train an agent and, after every training episode once it has started learning,
 record one episode of its current (deterministic) policy on a separate copy of the environment.
-Every recorded episode is a candidate: unsafe if the environment terminated it before the
-horizon (it crashed), safe otherwise. Once both groups have enough candidates, N of each are
+Every recorded episode is a candidate: unsafe if the environment terminated it (it crashed),
+safe if it reached the task's horizon (the ``max_episode_steps`` Gymnasium registers for the
+task) without terminating. An episode cut earlier by a shorter time limit is neither and is not
+kept (a warning says so once), unless ``horizon`` sets another length. Once both groups have enough candidates, N of each are
 taken at evenly spaced positions of their candidate lists (first and last included), so that the
 unsafe group spans the whole run, from the falls of a barely trained policy to the rare falls of
 a good one (docs/decisions.md explains what went wrong otherwise).
@@ -20,7 +22,10 @@ from typing import Any, Callable
 import gymnasium as gym
 import numpy as np
 
+import warnings
+
 from ._core import DefenderError, EpisodeSet, derive_seed
+from .horizon import env_horizon
 
 
 def spread(items: list[int], n: int) -> list[int]:
@@ -40,19 +45,25 @@ class DemoRecorder:
             ``derive_seed(seed, "demonstration", k)``, as ``defender demos collect`` does.
         max_steps: a cap on the length of one recorded episode (the environment's own time limit
             applies first).
+        horizon: the length a safe episode reaches; default: the task's horizon (the
+            ``max_episode_steps`` Gymnasium registers for the environment's id, else its own time
+            limit); 0 counts every episode that did not terminate as safe.
     """
 
-    def __init__(self, env: gym.Env | str, *, seed: int = 0, max_steps: int = 100_000):
+    def __init__(self, env: gym.Env | str, *, seed: int = 0, max_steps: int = 100_000, horizon: int | None = None):
         self.env = gym.make(env) if isinstance(env, str) else env
         self.seed = int(seed)
         self.max_steps = int(max_steps)
         self.env_id = self.env.spec.id if self.env.spec is not None else None
+        self.horizon = env_horizon(self.env) if horizon is None else int(horizon)
         self.candidates: list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]] = []
         self.sources: list[int] = []
+        self.left_out: list[int] = []
 
     def record(self, policy: Callable[[np.ndarray], Any], after_episode: int | None = None) -> bool:
-        """Runs one episode of ``policy(obs) -> action`` and keeps it as a candidate. Returns
-        whether it crashed (the environment terminated it)."""
+        """Runs one episode of ``policy(obs) -> action`` and keeps it as a candidate (unless it
+        neither crashed nor reached the horizon: then it is left out and counted in
+        ``left_out``). Returns whether it crashed (the environment terminated it)."""
         k = len(self.sources) if after_episode is None else int(after_episode)
         obs, _ = self.env.reset(seed=derive_seed(self.seed, "demonstration", k))
         observations, actions, rewards = [np.asarray(obs, dtype=np.float64)], [], []
@@ -66,6 +77,17 @@ class DemoRecorder:
             if terminated or truncated:
                 crashed = bool(terminated)  # SPEC section 6
                 break
+        if not crashed and self.horizon and len(rewards) < self.horizon:
+            if not self.left_out:
+                warnings.warn(
+                    f"DemoRecorder: an episode ended after {len(rewards)} steps without terminating, before the "
+                    f"task's horizon of {self.horizon} steps (a shorter time limit?); such episodes are not kept "
+                    "as safe demonstrations (DemoRecorder.left_out lists their lengths; horizon=... sets another rule)",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            self.left_out.append(len(rewards))
+            return False
         self.candidates.append((np.stack(observations), np.stack(actions), np.asarray(rewards), crashed))
         self.sources.append(k)
         return crashed
@@ -110,12 +132,14 @@ def collect_demos(
     train: Callable[[int], None] | None = None,
     max_episodes: int = 10_000,
     seed: int = 0,
+    horizon: int | None = None,
 ) -> EpisodeSet:
     """The paper's procedure around a training loop of your own: for ``k = 0, 1, ...`` call
     ``train(k)`` (run one training episode of your agent; None for a fixed policy), then record
     one episode of ``policy``; stop once both groups have enough candidates and select
-    ``n_safe`` + ``n_unsafe`` demonstrations (see :class:`DemoRecorder`)."""
-    recorder = DemoRecorder(env, seed=seed)
+    ``n_safe`` + ``n_unsafe`` demonstrations (see :class:`DemoRecorder`: a safe one reached the
+    task's horizon, or ``horizon`` steps when given)."""
+    recorder = DemoRecorder(env, seed=seed, horizon=horizon)
     for k in range(max_episodes):
         if train is not None:
             train(k)

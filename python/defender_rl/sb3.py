@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from collections import deque
 
 from stable_baselines3.common.callbacks import BaseCallback
@@ -20,8 +22,17 @@ class DefenderCallback(BaseCallback):
     finished training episodes that crashed / that DEFENDER ended), ``crashes`` and
     ``filtered_episodes`` (counts), ``episodes``, ``crash_rate_recent`` /
     ``filter_rate_recent`` (over the last ``window`` episodes), and ``filtered_step_rate``
-    (fraction of steps filtered). With ``strategy="auto"``, the strategy chosen and its scores
-    are logged once when training starts (``defender/strategy``, ``defender/scaling``, ``defender/selection/*``)."""
+    (fraction of steps filtered); ``mean_safe_cost`` and ``mean_unsafe_cost`` (the mean DTW costs
+    ``Safe(tau)`` and ``Unsafe(tau)`` of the steps since the last record) and ``dynamics_error``
+    (the dynamics model's moving-average prediction error on fresh transitions, averaged over the
+    environments) at each episode's end; and ``r_task`` once when training starts. The names are
+    those of the TensorBoard files ``defender train`` writes, so both kinds of run compare in one
+    TensorBoard. With ``strategy="auto"``, the strategy chosen and its scores are logged once when
+    training starts (``defender/strategy``, ``defender/scaling``, ``defender/selection/*``).
+
+    At the start it also warns when part of the run would do nothing: the agent's
+    ``learning_starts`` at or beyond ``total_timesteps`` (it never updates), or the dynamics
+    model's (it never trains)."""
 
     def __init__(self, window: int = 100, verbose: int = 0):
         super().__init__(verbose)
@@ -30,12 +41,42 @@ class DefenderCallback(BaseCallback):
         self.counts = {"crashed": 0, "filtered": 0, "truncated": 0}
         self.steps = 0
         self.filtered_steps = 0
+        self._costs = [0.0, 0.0, 0]
+
+    def _warn_inert(self) -> None:
+        total = self.locals.get("total_timesteps")
+        if total is None:
+            return
+        # SB3 counts timesteps across its environments, as learning_starts does.
+        starts = getattr(self.model, "learning_starts", None)
+        if starts is not None and starts >= total:
+            warnings.warn(
+                f"learning_starts = {starts} is at or beyond total_timesteps = {total}: the agent never updates; "
+                "lower the model's learning_starts or raise total_timesteps",
+                UserWarning,
+                stacklevel=2,
+            )
+        try:
+            starts = max(self.training_env.get_attr("dynamics_learning_starts"), default=0)
+        except AttributeError:
+            return
+        per_env = total / max(self.training_env.num_envs, 1)
+        if starts >= per_env:
+            warnings.warn(
+                f"DefenderWrapper(dynamics={{'learning_starts': {int(starts)}}}) is at or beyond the "
+                f"{int(per_env)} steps each environment takes: DEFENDER's dynamics model never trains; "
+                "lower dynamics['learning_starts'] or raise total_timesteps",
+                UserWarning,
+                stacklevel=2,
+            )
 
     def _on_training_start(self) -> None:
+        self._warn_inert()
         try:
             selections = self.training_env.get_attr("strategy_selection")
         except AttributeError:  # not a DefenderWrapper underneath
             return
+        self.logger.record("defender/r_task", float(self.training_env.get_attr("r_task")[0]))
         chosen = next((s for s in selections if s is not None), None)
         if chosen is None:
             return
@@ -49,6 +90,11 @@ class DefenderCallback(BaseCallback):
             self.steps += 1
             if info.get("defender_filtered"):
                 self.filtered_steps += 1
+            safe, unsafe = info.get("defender_safe_cost"), info.get("defender_unsafe_cost")
+            if safe is not None and unsafe is not None and math.isfinite(safe) and math.isfinite(unsafe):
+                self._costs[0] += safe
+                self._costs[1] += unsafe
+                self._costs[2] += 1
             outcome = info.get("defender_outcome")
             if outcome is not None:
                 self.counts[outcome] += 1
@@ -68,6 +114,16 @@ class DefenderCallback(BaseCallback):
         log("defender/crash_rate_recent", sum(o == "crashed" for o in self.recent) / n)
         log("defender/filter_rate_recent", sum(o == "filtered" for o in self.recent) / n)
         log("defender/filtered_step_rate", self.filtered_steps / max(self.steps, 1))
+        if self._costs[2]:
+            log("defender/mean_safe_cost", self._costs[0] / self._costs[2])
+            log("defender/mean_unsafe_cost", self._costs[1] / self._costs[2])
+            self._costs = [0.0, 0.0, 0]
+        try:
+            errors = [d["prediction_error_ema"] for d in self.training_env.get_attr("dynamics_info")]
+        except (AttributeError, KeyError):
+            errors = []
+        if errors:
+            log("defender/dynamics_error", sum(errors) / len(errors))
 
     @property
     def crash_rate(self) -> float:

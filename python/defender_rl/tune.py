@@ -35,6 +35,7 @@ import signal
 import subprocess
 import tempfile
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +64,9 @@ def find_binary(binary: str | os.PathLike[str] | None = None) -> Path:
 def expand(experiment: str | os.PathLike[str], out: str | os.PathLike[str], binary=None) -> list[dict[str, Any]]:
     """The runs of an experiment file, as ``defender sweep --list --json`` expands them: a list
     of ``{"name", "dir", "state", "config"}`` (``config``: the run's TOML). Raises
-    ``ValueError`` with the binary's message for a bad experiment file."""
+    ``ValueError`` with the binary's message for a bad experiment file; the binary's warnings
+    (a setting that leaves part of a run inert, such as ``learning_starts`` beyond the budget)
+    become Python ``UserWarning``\ s."""
     exe = find_binary(binary)
     done = subprocess.run(
         [str(exe), "sweep", str(experiment), "--out", str(out), "--list", "--json"],
@@ -72,6 +75,9 @@ def expand(experiment: str | os.PathLike[str], out: str | os.PathLike[str], bina
     )
     if done.returncode != 0:
         raise ValueError(done.stderr.strip() or f"defender sweep --list failed ({done.returncode})")
+    for line in done.stderr.splitlines():
+        if line.startswith("warning: "):
+            warnings.warn(line.removeprefix("warning: "), UserWarning, stacklevel=2)
     return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
 
 
@@ -181,6 +187,9 @@ def _trial(config: dict[str, Any]) -> None:
             raise RuntimeError(f"defender train for {run['name']} exited with {code}:\n" + "\n".join(tail))
         summary = json.loads((run_dir / "summary.json").read_text())
         final = {**_progress(run_dir), **{k: summary[k] for k in ("acc_reward", "crash_pct", "filtered_pct", "wall_seconds")}}
+        # The budget's last steps belong to an episode the budget cut, which metrics.csv (one row
+        # per finished episode) does not hold: summary.json counts every step.
+        final["total_steps"] = summary["steps"]
         tune.report({**final, "complete": True}, checkpoint=checkpoint)
     finally:
         if proc.poll() is None:
@@ -206,15 +215,21 @@ def run_experiment(
     each) into the sweep directory ``out`` and returns Tune's ``ResultGrid``. Call
     ``ray.init(...)`` first to choose the cluster (a local one otherwise). Runs already complete
     are skipped; a trial that fails is restarted from its last checkpoint up to ``max_failures``
-    times."""
+    times. Called again when every run is complete, it returns the ``ResultGrid`` of the Tune
+    experiment that ran them (restored from ``out/.sweep/tune/NAME``), or ``None`` when Tune never
+    ran them (a sweep made by ``defender sweep``)."""
     from ray import tune
 
     exe = find_binary(binary)
     out = Path(out).resolve()
     runs = [r for r in expand(experiment, out, exe) if r["state"] != "complete"]
-    if not runs:
-        return None
     trainable = tune.with_resources(_trial, {"cpu": 1})
+    name = name or Path(experiment).stem
+    if not runs:
+        previous = out / ".sweep" / "tune" / name
+        if tune.Tuner.can_restore(str(previous)):
+            return tune.Tuner.restore(str(previous), trainable=trainable).get_results()
+        return None
     tuner = tune.Tuner(
         trainable,
         param_space={
@@ -224,7 +239,7 @@ def run_experiment(
             "poll_seconds": poll_seconds,
         },
         run_config=tune.RunConfig(
-            name=name or Path(experiment).stem,
+            name=name,
             storage_path=str(out / ".sweep" / "tune"),
             failure_config=tune.FailureConfig(max_failures=max_failures),
             checkpoint_config=tune.CheckpointConfig(num_to_keep=1),

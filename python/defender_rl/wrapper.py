@@ -4,16 +4,54 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
+import warnings
 from typing import Any, Mapping, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
 from ._core import Core, DefenderError, EpisodeSet
+from .horizon import env_horizon, warn_short_safe
 
 #: The keys :class:`DefenderWrapper` adds to every step's ``info`` (flat scalars, so that SB3's
 #: ``Monitor(info_keywords=...)`` and vector environments carry them).
 INFO_KEYS = ("defender_filtered", "defender_safe_cost", "defender_unsafe_cost", "defender_outcome")
+
+#: The keys of every step, also put into ``reset``'s ``info`` with these neutral values (no step
+#: was filtered; no cost was computed), so that a vector environment's ``info`` has them on every
+#: step whatever its autoreset mode (under next-step autoreset, a sub-environment's ``info`` on
+#: the step that resets it is ``reset``'s).
+RESET_INFO = {"defender_filtered": False, "defender_safe_cost": float("nan"), "defender_unsafe_cost": float("nan")}
+
+#: Episode statistics recorded *inside* DefenderWrapper miss the steps it filters (the wrapped
+#: environment never sees them), so they describe another training than the one that runs.
+_STATISTICS_WRAPPERS = (
+    ("stable_baselines3.common.monitor", "Monitor", "Monitor(DefenderWrapper(env, ...))"),
+    ("gymnasium.wrappers", "RecordEpisodeStatistics", "RecordEpisodeStatistics(DefenderWrapper(env, ...))"),
+)
+_warned_statistics: set[str] = set()
+
+
+def _warn_statistics_inside(env: gym.Env) -> None:
+    """Warns (once per class and process) when ``env`` holds an episode-statistics wrapper."""
+    e = env
+    while e is not None:
+        for module, name, right in _STATISTICS_WRAPPERS:
+            if any(c.__name__ == name and c.__module__.startswith(module.split(".")[0]) for c in type(e).__mro__):
+                if name not in _warned_statistics:
+                    _warned_statistics.add(name)
+                    warnings.warn(
+                        f"DefenderWrapper wraps a {name}: episodes DEFENDER ends by filtering never reach it, "
+                        f"so its statistics (episode returns, lengths, counts) miss them. Put it outside: "
+                        f"{right}. With Stable-Baselines3's make_vec_env, wrapper_class=DefenderWrapper puts its "
+                        "Monitor inside; pass a function that builds the wrapper instead: "
+                        "make_vec_env(lambda: DefenderWrapper(gym.make(ENV_ID), demos), n_envs=N) "
+                        "(README, Stable-Baselines3)",
+                        UserWarning,
+                        stacklevel=3,  # the caller of DefenderWrapper(...)
+                    )
+        e = getattr(e, "env", None) if isinstance(e, gym.Wrapper) else None
 
 
 def _check_box(space: gym.Space, what: str) -> gym.spaces.Box:
@@ -111,6 +149,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             dynamics=dynamics, seed=seed, scaling=scaling,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
+        _warn_statistics_inside(env)
         obs_space = _check_box(env.observation_space, "observation space")
         act_space = _check_box(env.action_space, "action space")
         if not np.all(np.isfinite(act_space.low)) or not np.all(np.isfinite(act_space.high)):
@@ -155,11 +194,27 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             None if seed is None else int(seed),
             scaling,
         )
+        self._check_horizon(demos, env, num_demos)
+        # DynamicsConfig's default learning_starts is 1 (crates/defender/src/dynamics.rs).
+        self._dynamics_learning_starts = int(dict(dynamics or {}).get("learning_starts", 1))
+
+    @staticmethod
+    def _check_horizon(demos, env: gym.Env, num_demos) -> None:
+        """Warns when safe demonstrations end before the task's horizon (they were accepted)."""
+        if isinstance(demos, str):
+            demos = EpisodeSet.load(demos)
+        elif isinstance(demos, Mapping):
+            demos = EpisodeSet.from_arrays(**demos)
+        if isinstance(demos, EpisodeSet):
+            warn_short_safe(demos, env_horizon(env), "DefenderWrapper", num_demos=num_demos, stacklevel=4)
 
     # -- Gymnasium API ------------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        return self._core.reset(seed, options)
+        obs, info = self._core.reset(seed, options)
+        for key, value in RESET_INFO.items():
+            info.setdefault(key, value)
+        return obs, info
 
     def step(self, action) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         return self._core.step(action)
@@ -167,6 +222,18 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def close(self):
         self._core.close()
         super().close()
+
+    def __reduce_ex__(self, protocol):
+        # A built wrapper holds the Rust core (the dynamics model, its thread, the filter), which
+        # does not pickle; what pickles is the recipe to build one, in each worker.
+        raise pickle.PicklingError(
+            "a built DefenderWrapper does not pickle (it holds its Rust core: the dynamics model and "
+            "the filter). Pass a function that builds it instead, e.g. "
+            "gymnasium.vector.AsyncVectorEnv([lambda: DefenderWrapper(gym.make(ENV_ID), demos)] * N), "
+            "SB3's SubprocVecEnv([lambda: ...]), or gymnasium.make_vec(ENV_ID, N, wrappers=[lambda e: "
+            "DefenderWrapper(e, demos)]); its constructor's arguments pickle. To keep its learned state, "
+            "use save_state/load_state."
+        )
 
     # -- DEFENDER -----------------------------------------------------------------------------
 
@@ -208,6 +275,11 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     @property
     def mode(self) -> str:
         return self._core.config()[1]
+
+    @property
+    def dynamics_learning_starts(self) -> int:
+        """Real transitions the dynamics model collects before it first trains."""
+        return self._dynamics_learning_starts
 
     @property
     def dynamics_info(self) -> dict[str, float]:

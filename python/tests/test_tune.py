@@ -4,6 +4,7 @@ runs made by ``defender sweep``; no ``defender train`` process outlives its tria
 
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import signal
@@ -75,6 +76,10 @@ def test_expand_is_the_binarys_expansion(binary, tmp_path):
     bad.write_text(SMOKE.read_text().replace("seeds = [0]", "seeds = []"))
     with pytest.raises(ValueError, match="grid.seeds is empty"):
         expand(bad, tmp_path, binary)
+    inert = tmp_path / "inert.toml"
+    inert.write_text(SMOKE.read_text().replace("steps = 1500", "steps = 800"))
+    with pytest.warns(UserWarning, match=r"\[sac\] learning_starts = 1000 is at or beyond the budget of 800 steps"):
+        expand(inert, tmp_path, binary)
 
 
 def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path):
@@ -125,6 +130,9 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
         killer.start()
         results = run_experiment(SMOKE, cluster, binary=binary, max_failures=2, poll_seconds=0.5)
         killer.join(timeout=5)
+        # Called again, every run complete: the same results, not None.
+        again = run_experiment(SMOKE, cluster, binary=binary)
+        assert again is not None and len(again) == len(results) and not again.errors
     finally:
         ray.shutdown()
     assert killed, "the test never killed a worker"
@@ -137,6 +145,17 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
         assert metrics(local / run) == metrics(cluster / run), run
         assert (local / run / "eval.csv").read_text() == (cluster / run / "eval.csv").read_text(), run
         assert actor_tensors(local / run) == actor_tensors(cluster / run), run
+    for result in results:
+        run_dir = pathlib.Path(result.config["run"]["dir"])
+        summary = json.loads((run_dir / "summary.json").read_text())
+        assert result.metrics["total_steps"] == summary["steps"] == 1500, result.metrics
+    # The run killed with its worker is one TensorBoard curve with no step twice.
+    from tensorboard.backend.event_processing.event_file_loader import EventFileLoader
+
+    (events,) = (cluster / RUNS[1]).glob("events.out.tfevents.*")
+    steps = [e.step for e in EventFileLoader(str(events)).Load() if e.HasField("summary")
+             and e.summary.value[0].tag == "episode/return"]
+    assert steps == sorted(set(steps)) and len(steps) == len(metrics(cluster / RUNS[1])) - 1
     report = subprocess.run([str(binary), "report", str(cluster)], capture_output=True, text=True)
     assert report.returncode == 0, report.stderr
     assert "MinDemoW5" in report.stdout

@@ -138,10 +138,13 @@ def test_async_vector_env_pickles_the_arguments():
         assert obs.shape == (2, 11)
         seen = set()
         envs.action_space.seed(0)
+        resetting = np.zeros(2, dtype=bool)  # next-step autoreset: this step only resets them
         for _ in range(60):
             obs, rew, term, trunc, info = envs.step(envs.action_space.sample())
             assert info["defender_filtered"].shape == (2,)
-            assert np.all(np.isfinite(info["defender_safe_cost"]))
+            assert np.all(np.isfinite(info["defender_safe_cost"][~resetting]))
+            assert np.all(np.isnan(info["defender_safe_cost"][resetting]))  # reset's neutral value
+            resetting = term | trunc
             if "defender_outcome" in info:
                 seen.update(o for o, m in zip(info["defender_outcome"], info["_defender_outcome"]) if m)
         assert seen, "no episode ended in 60 steps of random actions on Hopper-v5"

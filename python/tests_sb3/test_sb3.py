@@ -47,6 +47,8 @@ def test_sac_with_defender_crashes_less_on_inverted_double_pendulum(tmp_path):
     assert callback.crash_rate == pytest.approx(defended)
     rows = list(csv.DictReader(open(tmp_path / "progress.csv")))
     assert "defender/crash_rate" in rows[-1] and "defender/filter_rate" in rows[-1]
+    for key in ("defender/dynamics_error", "defender/mean_safe_cost", "defender/mean_unsafe_cost", "defender/r_task"):
+        assert any(row.get(key) for row in rows), key
     # Monitor carried the outcome of every episode.
     assert set(env.get_episode_lengths()) and "defender_outcome" in env.info_keywords
 
@@ -74,3 +76,22 @@ def test_demo_collector_callback_records_after_learning_starts_and_stops():
     # Stopped once 3 unsafe candidates were recorded, all after SAC's random steps.
     assert recorder.group_sizes[1] >= 3 and model.num_timesteps < 3000
     assert all(k >= 0 for k in recorder.sources)
+
+
+def test_monitor_inside_the_wrapper_warns_and_make_vec_env_the_right_way_does_not(monkeypatch):
+    import warnings
+
+    import defender_rl.wrapper
+    from stable_baselines3.common.env_util import make_vec_env
+
+    monkeypatch.setattr(defender_rl.wrapper, "_warned_statistics", set())
+    with pytest.warns(UserWarning, match=r"Monitor\(DefenderWrapper\(env, \.\.\.\)\)"):
+        make_vec_env(IDP, n_envs=1, wrapper_class=DefenderWrapper, wrapper_kwargs={"demos": IDP_DEMOS}).close()
+    monkeypatch.setattr(defender_rl.wrapper, "_warned_statistics", set())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        venv = make_vec_env(lambda: DefenderWrapper(gym.make(IDP), IDP_DEMOS), n_envs=2)
+    model = SAC("MlpPolicy", venv, seed=0, learning_starts=5000)
+    with pytest.warns(UserWarning, match="learning_starts = 5000 is at or beyond total_timesteps = 200"):
+        model.learn(200, callback=DefenderCallback())
+    venv.close()

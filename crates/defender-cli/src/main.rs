@@ -2,9 +2,12 @@
 //! rank the 576 filtering strategies offline, report the paper's tables and plots, and measure.
 
 mod commands;
+mod cost_meter;
+mod demo_horizon;
 #[cfg(test)]
 mod fuzz;
 mod profile;
+mod inert;
 mod progress;
 mod resume;
 mod run_config;
@@ -12,6 +15,7 @@ mod run_dir;
 mod setup;
 mod signals;
 mod sweep;
+mod tensorboard;
 mod text_table;
 mod update_log;
 

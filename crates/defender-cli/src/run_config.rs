@@ -65,6 +65,35 @@ pub struct RunConfig {
     /// TD3 hyperparameters (used when `algo = "td3"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub td3: Option<defender_rl::Td3Config>,
+    /// What the run writes besides its CSV files (`[log]`); left out of `config.toml` when it is
+    /// the default, so runs started before it resume unchanged.
+    #[serde(default, skip_serializing_if = "LogSection::is_default")]
+    pub log: LogSection,
+}
+
+/// The `[log]` section of a run configuration.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LogSection {
+    /// TensorBoard event files in the run directory (`tensorboard --logdir`); on by default.
+    #[serde(default = "yes")]
+    pub tensorboard: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for LogSection {
+    fn default() -> Self {
+        Self { tensorboard: true }
+    }
+}
+
+impl LogSection {
+    fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 pub(crate) fn five() -> usize {

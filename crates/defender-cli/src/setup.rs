@@ -41,6 +41,8 @@ pub struct Built {
     pub dynamics: Option<defender::DynamicsHandle>,
     /// A bare run's demonstration file stored in the agent's buffer, and its SHA-256.
     pub replay_demos: Option<(PathBuf, String)>,
+    /// DEFENDER's alignment costs as the run goes (for its TensorBoard scalars).
+    pub costs: Option<crate::cost_meter::SharedCosts>,
 }
 
 /// Whether a run trains DEFENDER's dynamics model on a thread of its own: when its configuration
@@ -74,7 +76,15 @@ pub fn build(config: &RunConfig) -> Result<Built> {
             preload(&mut *agent, &demos, &action_space)?;
             replay_demos = Some((path, sha256));
         }
-        return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None, replay_demos });
+        return Ok(Built {
+            agent,
+            env: Box::new(task),
+            eval_env,
+            defender: None,
+            dynamics: None,
+            costs: None,
+            replay_demos,
+        });
     };
     if config.demos.is_some() {
         bail!("a DEFENDER run takes its demonstrations from [defender] demos, not the top-level `demos` key");
@@ -99,6 +109,11 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         );
     }
     let demos = EpisodeSet::load(&path)?;
+    if let Some(warning) =
+        task.max_episode_steps().and_then(|h| crate::demo_horizon::warning(&demos, h, section.num_demos))
+    {
+        eprintln!("warning: {}: {warning}", path.display());
+    }
     if section.strategy == StrategyChoice::Auto {
         let (strategy, scaling, record) = crate::commands::select::choose_for_run(
             &demos,
@@ -126,7 +141,16 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     if algo.demos_in_replay() {
         preload(&mut *agent, &demos, &action_space)?;
     }
-    Ok(Built { agent, env: Box::new(wrapped), eval_env, defender: Some(section), dynamics, replay_demos: None })
+    let (metered, costs) = crate::cost_meter::CostMeter::new(wrapped);
+    Ok(Built {
+        agent,
+        env: Box::new(metered),
+        eval_env,
+        defender: Some(section),
+        dynamics,
+        costs: Some(costs),
+        replay_demos: None,
+    })
 }
 
 /// A demonstration file and its SHA-256, refused if `pinned` names another content.

@@ -25,13 +25,136 @@ pub struct UpdateLog {
     n_updates: u64,
 }
 
-fn mean((sum, n): (f64, u32)) -> String {
-    if n == 0 { String::new() } else { format!("{}", sum / f64::from(n)) }
+fn mean((sum, n): (f64, u32)) -> Option<f64> {
+    (n > 0).then(|| sum / f64::from(n))
+}
+
+/// An optional CSV field: empty when absent.
+fn field<T: std::fmt::Display>(v: Option<T>) -> String {
+    v.map_or(String::new(), |v| v.to_string())
+}
+
+/// Parses a CSV field, empty meaning absent.
+fn parse_field<T: std::str::FromStr>(s: &str) -> Result<Option<T>, String> {
+    if s.is_empty() { Ok(None) } else { s.parse().map(Some).map_err(|_| format!("not a number: '{s}'")) }
+}
+
+fn parse_fields(line: &str, n: usize) -> Result<Vec<&str>, String> {
+    let fields: Vec<&str> = line.split(',').collect();
+    if fields.len() == n { Ok(fields) } else { Err(format!("{} fields, expected {n}", fields.len())) }
+}
+
+fn required<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    parse_field(s)?.ok_or_else(|| "an empty required field".to_string())
+}
+
+/// One `updates.csv` row: the means over a window of `EVERY` steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UpdateRow {
+    /// Environment steps at the window's end.
+    pub total_steps: u64,
+    /// Gradient updates so far.
+    pub n_updates: u64,
+    /// The critics' loss.
+    pub qf_loss: f64,
+    /// The first critic's mean Q.
+    pub qf1_mean: f64,
+    /// The actor's loss (none in a window without actor update).
+    pub actor_loss: Option<f64>,
+    /// SAC's entropy coefficient (none for TD3).
+    pub ent_coef: Option<f32>,
+    /// Its loss (none unless it is learned).
+    pub ent_coef_loss: Option<f64>,
+}
+
+impl UpdateRow {
+    /// The CSV row (`defender_report::UPDATES_HEADER`).
+    pub fn to_csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{}",
+            self.total_steps,
+            self.n_updates,
+            self.qf_loss,
+            self.qf1_mean,
+            field(self.actor_loss),
+            field(self.ent_coef),
+            field(self.ent_coef_loss)
+        )
+    }
+
+    /// Parses a CSV row.
+    ///
+    /// # Errors
+    /// A row that is not one of `updates.csv`, with what is wrong.
+    pub fn parse(line: &str) -> Result<Self, String> {
+        let f = parse_fields(line, 7)?;
+        Ok(Self {
+            total_steps: required(f[0])?,
+            n_updates: required(f[1])?,
+            qf_loss: required(f[2])?,
+            qf1_mean: required(f[3])?,
+            actor_loss: parse_field(f[4])?,
+            ent_coef: parse_field(f[5])?,
+            ent_coef_loss: parse_field(f[6])?,
+        })
+    }
+}
+
+/// One `dynamics.csv` row: DEFENDER's dynamics model at `total_steps`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicsRow {
+    /// Environment steps.
+    pub total_steps: u64,
+    /// Real transitions the model has seen.
+    pub real_steps: u64,
+    /// Its gradient steps.
+    pub gradient_steps: u64,
+    /// Prediction error on the last fresh transition.
+    pub error_last: f64,
+    /// Its exponential moving average.
+    pub error_ema: f64,
+    /// Its mean over all fresh transitions.
+    pub error_mean: f64,
+    /// The last training loss (none before the first gradient step).
+    pub loss: Option<f32>,
+}
+
+impl DynamicsRow {
+    /// The CSV row (`defender_report::DYNAMICS_HEADER`).
+    pub fn to_csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{}",
+            self.total_steps,
+            self.real_steps,
+            self.gradient_steps,
+            self.error_last,
+            self.error_ema,
+            self.error_mean,
+            field(self.loss)
+        )
+    }
+
+    /// Parses a CSV row.
+    ///
+    /// # Errors
+    /// A row that is not one of `dynamics.csv`, with what is wrong.
+    pub fn parse(line: &str) -> Result<Self, String> {
+        let f = parse_fields(line, 7)?;
+        Ok(Self {
+            total_steps: required(f[0])?,
+            real_steps: required(f[1])?,
+            gradient_steps: required(f[2])?,
+            error_last: required(f[3])?,
+            error_ema: required(f[4])?,
+            error_mean: required(f[5])?,
+            loss: parse_field(f[6])?,
+        })
+    }
 }
 
 impl UpdateLog {
     /// Adds one update's statistics; returns a finished row when `total_steps` closes a window.
-    pub fn add(&mut self, total_steps: u64, stats: &defender_rl::UpdateStats) -> Option<String> {
+    pub fn add(&mut self, total_steps: u64, stats: &defender_rl::UpdateStats) -> Option<UpdateRow> {
         self.n += 1;
         self.qf_loss += f64::from(stats.qf_loss);
         self.qf1_mean += f64::from(stats.qf1_mean);
@@ -49,15 +172,15 @@ impl UpdateLog {
             return None;
         }
         let n = f64::from(self.n);
-        let row = format!(
-            "{total_steps},{},{},{},{},{},{}",
-            self.n_updates,
-            self.qf_loss / n,
-            self.qf1_mean / n,
-            mean(self.actor),
-            self.alpha.map_or(String::new(), |a| a.to_string()),
-            mean(self.alpha_loss)
-        );
+        let row = UpdateRow {
+            total_steps,
+            n_updates: self.n_updates,
+            qf_loss: self.qf_loss / n,
+            qf1_mean: self.qf1_mean / n,
+            actor_loss: mean(self.actor),
+            ent_coef: self.alpha,
+            ent_coef_loss: mean(self.alpha_loss),
+        };
         *self = Self::default();
         Some(row)
     }
@@ -65,21 +188,21 @@ impl UpdateLog {
 
 /// The `dynamics.csv` row at `total_steps`, or `None` between rows. Every value is the model's own
 /// (checkpointed) state, so a resumed run writes the rows the run left alone would.
-pub fn dynamics_row(total_steps: u64, model: &defender::DynamicsModel) -> Option<String> {
+pub fn dynamics_row(total_steps: u64, model: &defender::DynamicsModel) -> Option<DynamicsRow> {
     if !total_steps.is_multiple_of(EVERY) {
         return None;
     }
     let e = model.prediction_error();
     let loss = model.last_loss();
-    Some(format!(
-        "{total_steps},{},{},{},{},{},{}",
-        model.real_steps(),
-        model.gradient_steps(),
-        e.last,
-        e.ema,
-        e.mean,
-        if loss.is_nan() { String::new() } else { loss.to_string() }
-    ))
+    Some(DynamicsRow {
+        total_steps,
+        real_steps: model.real_steps(),
+        gradient_steps: model.gradient_steps(),
+        error_last: e.last,
+        error_ema: e.ema,
+        error_mean: e.mean,
+        loss: (!loss.is_nan()).then_some(loss),
+    })
 }
 
 #[cfg(test)]
@@ -98,12 +221,14 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
         let mut model = defender::DynamicsModel::new(2, 1, config, &mut rng).unwrap();
         assert_eq!(dynamics_row(999, &model), None);
-        let fresh = dynamics_row(1000, &model).unwrap();
+        let fresh = dynamics_row(1000, &model).unwrap().to_csv();
         assert_eq!(fresh, "1000,0,0,0,0,0,", "no data, no loss yet");
         for t in 0..20 {
             model.observe(&[t as f64, 1.0], &[0.5], &[t as f64 + 0.5, 1.0]).unwrap();
         }
-        let row = dynamics_row(2000, &model).unwrap();
+        let parsed = dynamics_row(2000, &model).unwrap();
+        let row = parsed.to_csv();
+        assert_eq!(DynamicsRow::parse(&row), Ok(parsed));
         let fields: Vec<&str> = row.split(',').collect();
         assert_eq!(fields.len(), defender_report::DYNAMICS_HEADER.split(',').count());
         assert_eq!(fields[..2], ["2000", "20"]);

@@ -76,6 +76,11 @@ pub struct ReportArgs {
     /// Write the table to FILE (atomically) instead of standard output.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// Also write TensorBoard event files from the runs' CSV files into DIR, one per run at its
+    /// path below the folder given (for runs that predate the event files `defender train`
+    /// writes): `tensorboard --logdir DIR`.
+    #[arg(long, value_name = "DIR")]
+    pub tensorboard: Option<PathBuf>,
 }
 
 /// Runs `defender report`.
@@ -136,6 +141,10 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
             eprintln!("note: {note}");
         }
         eprintln!("wrote {} plot files to {}", plots.files.len(), dir.display());
+    }
+    if let Some(dir) = &args.tensorboard {
+        let n = crate::tensorboard::convert::write_runs(&set.runs, &args.runs, dir)?;
+        eprintln!("wrote the TensorBoard event files of {n} runs to {}", dir.display());
     }
     Ok(())
 }

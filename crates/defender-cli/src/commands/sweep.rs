@@ -44,6 +44,9 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let experiment = experiment::load(&args.experiment)?;
     if args.list {
         for run in &experiment.runs {
+            for warning in crate::inert::warnings(&run.config) {
+                eprintln!("warning: {}: {warning}", run.name);
+            }
             let dir = args.out.join(&run.name);
             let state = match state_of(&dir) {
                 // A complete run made with another configuration is not this experiment's run.

@@ -18,6 +18,7 @@ use crate::run_config::{DefenderSection, RunConfig, default_checkpoint_seconds, 
 use crate::run_dir::{self, RunDir};
 use crate::setup::{self, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
+use crate::tensorboard::board::{self, TrainingBoard};
 use crate::update_log::{self, UpdateLog};
 
 /// Arguments of `defender train`.
@@ -29,8 +30,8 @@ use crate::update_log::{self, UpdateLog};
   defender train --out runs/x --resume                  (continue a stopped run)
 
 Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
-The run directory gets config.toml, metrics.csv, eval.csv, summary.json and checkpoint/
-(docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
+The run directory gets config.toml, metrics.csv, eval.csv, summary.json, checkpoint/ and a
+TensorBoard event file (`tensorboard --logdir`; [log] tensorboard = false: none) (docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
 a checkpoint (exit code 130/143/129); a checkpoint is also written every 2 minutes, so --resume
 continues even after a kill -9. A resumed run keeps its configuration: only --steps/--episodes
 may extend its budget.")]
@@ -144,6 +145,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             defender: None,
             sac: None,
             td3: None,
+            log: Default::default(),
         },
     };
     let config = apply_flags(config, args)?;
@@ -273,6 +275,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
             args.out.display()
         );
     }
+    for warning in crate::inert::warnings(&config) {
+        eprintln!("warning: {warning}");
+    }
     let built = setup::build(&config)?;
     // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
     // records.
@@ -307,18 +312,25 @@ pub fn run(args: TrainArgs) -> Result<()> {
         RunDir::create(&args.out, &[], &[], 0, built.dynamics.is_some())?
     };
     let mut hooks = TrainHooks::new(run_dir, &config, budget, stop.clone(), recorder, built.dynamics);
+    hooks.costs = built.costs;
     if resuming {
         trainer.resume(&checkpoint_dir, &mut hooks)?;
         if trainer.config().budget != budget {
             trainer.set_budget(budget).context("--resume")?;
         }
         hooks.restart(trainer.episodes(), trainer.evaluations(), trainer.total_steps())?;
+    } else if config.log.tensorboard {
+        let r_task = config.defender.as_ref().and_then(|d| d.r_task);
+        hooks.board = Some(TrainingBoard::create(&args.out, hooks.costs.clone(), r_task)?);
     }
     hooks.run_dir.write_config(&config)?;
     hooks.write_summary(&trainer, None)?;
 
     let end = trainer.run(&mut hooks)?;
     hooks.bar.finish_and_clear();
+    if let Some(board) = &mut hooks.board {
+        board.flush()?;
+    }
     let final_eval = match &end {
         RunEnd::Complete(eval) => Some(eval.clone()),
         RunEnd::Stopped => None,
@@ -390,6 +402,11 @@ struct TrainHooks {
     recorder: Option<TrainingRecorder>,
     updates: UpdateLog,
     dynamics: Option<defender::DynamicsHandle>,
+    /// The TensorBoard event file (none with `[log] tensorboard = false`).
+    board: Option<TrainingBoard>,
+    /// What the checkpoint being resumed recorded of the event file.
+    board_saved: Option<board::Saved>,
+    costs: Option<crate::cost_meter::SharedCosts>,
     error: Option<anyhow::Error>,
 }
 
@@ -416,6 +433,9 @@ impl TrainHooks {
             recorder,
             updates: UpdateLog::default(),
             dynamics,
+            board: None,
+            board_saved: None,
+            costs: None,
             error: None,
         }
     }
@@ -423,6 +443,18 @@ impl TrainHooks {
     /// After a resume: the files restart from the checkpoint's records.
     fn restart(&mut self, episodes: &[EpisodeRecord], evals: &[EvalRecord], steps: u64) -> Result<()> {
         self.run_dir = RunDir::create(self.run_dir.root(), episodes, evals, steps, self.dynamics.is_some())?;
+        if self.config.log.tensorboard {
+            let r_task = self.config.defender.as_ref().and_then(|d| d.r_task);
+            self.board = Some(TrainingBoard::resume(
+                self.run_dir.root(),
+                self.board_saved.as_ref(),
+                episodes,
+                evals,
+                steps,
+                self.costs.clone(),
+                r_task,
+            )?);
+        }
         for r in episodes {
             self.counts.add(r.outcome());
         }
@@ -467,7 +499,10 @@ impl Hooks for TrainHooks {
             && self.error.is_none()
         {
             // Hooks of a step cannot fail; the error stops the run at the episode's end.
-            self.error = self.run_dir.append_updates(&row).err();
+            self.error = self.run_dir.append_updates(&row.to_csv()).err();
+            if let (Some(board), None) = (&mut self.board, &self.error) {
+                self.error = board.updates(&row).err();
+            }
         }
     }
 
@@ -475,16 +510,26 @@ impl Hooks for TrainHooks {
         if self.by_steps {
             self.bar.set_position(total_steps);
         }
+        if self.error.is_some() || !total_steps.is_multiple_of(update_log::EVERY) {
+            return;
+        }
         // Only at a row: a model trained on its own thread is waited for there.
-        if let (Some(handle), None, true) =
-            (&self.dynamics, &self.error, total_steps.is_multiple_of(update_log::EVERY))
-        {
-            // Hooks of a step cannot fail; the error stops the run at the episode's end.
-            self.error = match handle.read(|model| update_log::dynamics_row(total_steps, model)) {
-                Ok(Some(row)) => self.run_dir.append_dynamics(&row).err(),
-                Ok(None) => None,
-                Err(e) => Some(e.into()),
-            };
+        // Hooks of a step cannot fail; the error stops the run at the episode's end.
+        let row = match &self.dynamics {
+            Some(handle) => match handle.read(|model| update_log::dynamics_row(total_steps, model)) {
+                Ok(row) => row,
+                Err(e) => {
+                    self.error = Some(e.into());
+                    return;
+                }
+            },
+            None => None,
+        };
+        if let Some(row) = &row {
+            self.error = self.run_dir.append_dynamics(&row.to_csv()).err();
+        }
+        if let (Some(board), None) = (&mut self.board, &self.error) {
+            self.error = board.window(total_steps, row.as_ref()).err();
         }
     }
 
@@ -501,6 +546,9 @@ impl Hooks for TrainHooks {
         }
         self.counts.add(record.outcome());
         self.run_dir.append_episode(record)?;
+        if let Some(board) = &mut self.board {
+            board.episode(record)?;
+        }
         if let Some(recorder) = &mut self.recorder {
             recorder.end_episode(record)?;
         }
@@ -519,6 +567,9 @@ impl Hooks for TrainHooks {
 
     fn on_evaluation(&mut self, record: &EvalRecord) -> Result<(), HookError> {
         self.run_dir.append_eval(record)?;
+        if let Some(board) = &mut self.board {
+            board.evaluation(record)?;
+        }
         Ok(())
     }
 
@@ -531,6 +582,9 @@ impl Hooks for TrainHooks {
             .map_err(|(path, e)| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
         if let Some(recorder) = &self.recorder {
             recorder.save_checkpoint(dir)?;
+        }
+        if let Some(board) = &mut self.board {
+            board.save(dir)?;
         }
         Ok(())
     }
@@ -547,6 +601,7 @@ impl Hooks for TrainHooks {
         if let Some(recorder) = &mut self.recorder {
             recorder.load_checkpoint(dir)?;
         }
+        self.board_saved = TrainingBoard::load(dir)?;
         Ok(())
     }
 
