@@ -106,10 +106,12 @@ def metrics(run: pathlib.Path) -> list[str]:
     return [line.rsplit(",", 1)[0] for line in (run / "metrics.csv").read_text().splitlines()]
 
 
-def tune_has_checkpoint(sweep: pathlib.Path, strategy: str) -> bool:
+def tune_has_checkpoint(sweep: pathlib.Path, defender: bool) -> bool:
+    """Whether Tune holds a checkpoint of the DEFENDER run (or of the bare one): its copy of
+    the run's config.toml."""
     for config in (sweep / ".sweep" / "tune").glob("*/*/checkpoint_*/config.toml"):
         try:
-            if strategy in config.read_text():
+            if ("MinDemoW5/MinDemoW10" in config.read_text()) == defender:
                 return True
         except OSError:
             continue
@@ -199,8 +201,7 @@ def test_a_worker_node_lost_mid_run_is_restarted_from_its_checkpoint(cluster, tm
                         os.kill(target, signal.SIGSTOP)
                     except ProcessLookupError:
                         return  # ended before its first checkpoint: nothing to test
-                    strategy = "MinDemoW5/MinDemoW10" if "MinDemo" in run_dir.name else 'strategy = "none"'
-                    while time.time() < deadline and not tune_has_checkpoint(out, strategy):
+                    while time.time() < deadline and not tune_has_checkpoint(out, "MinDemo" in run_dir.name):
                         time.sleep(0.05)
                     time.sleep(0.7)  # and the driver has recorded it (the trial polls every 0.5 s)
                     os.kill(worker_raylet, signal.SIGKILL)
