@@ -66,17 +66,19 @@ pub fn build(env_id: &str, algo: &AlgoConfig, seed: u64, section: Option<&Defend
         return Ok(Built { agent, env: Box::new(task), eval_env, defender: None, dynamics: None });
     };
     let mut section = section.clone();
-    let path = match section.demos.clone() {
-        Some(path) => path,
-        None => match shipped_demos(env_id) {
-            Some(path) if path.exists() => path,
-            looked => bail!(
-                "no demonstrations shipped for {env_id} ({}); give --demos FILE.npz (make one \
+    let path = match (section.demos.clone(), shipped_demos(env_id)) {
+        (Some(path), _) => path,
+        (None, Some(path)) if path.exists() => path,
+        (None, looked) => {
+            let looked = looked.map_or("an installed defender carries none".into(), |p| {
+                format!("looked for {}", p.display())
+            });
+            bail!(
+                "no demonstrations shipped for {env_id} ({looked}); give --demos FILE.npz (make one \
                  with `defender demos collect --env {env_id} --out FILE.npz`), or set DEFENDER_DATA \
-                 to a folder holding demos/{env_id}.npz (the repository's data/)",
-                looked.map_or("an installed defender carries none".to_string(), |p| format!("looked for {}", p.display()))
-            ),
-        },
+                 to a folder holding demos/{env_id}.npz (the repository's data/)"
+            )
+        }
     };
     let sha256 = file_sha256(&path)?;
     if let Some(pinned) = &section.demos_sha256
