@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench bench-peers lint fmt tools-venv clean-deps python test-python test-sb3
+.PHONY: setup run test bench bench-peers lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel
 
 setup:
 	@bash scripts/setup.sh
@@ -19,6 +19,7 @@ test: setup
 	# --all-targets leaves out doc tests: the crates' README examples are compiled and run here.
 	$(CARGO) test --release --workspace --doc
 	$(MAKE) --no-print-directory test-python
+	$(MAKE) --no-print-directory test-wheel
 
 bench: setup
 	$(CARGO) bench --workspace
@@ -48,6 +49,16 @@ python: setup
 # The Python tests (part of `make test`). pytest exits non-zero (5) when it collects no test.
 test-python: python
 	.deps/venv/bin/python -m pytest python/tests -q -p no:cacheprovider
+
+# The wheel a user installs without Rust (README, "Python"): dist/defender_rl-*-cp310-abi3-
+# manylinux_2_17_x86_64.whl with the `defender` command, and the sdist. Tools: .deps/wheel-venv.
+wheel: setup
+	@bash scripts/wheel.sh
+
+# That wheel in a fresh venv, as a user gets it (part of `make test`): no cargo, no source tree;
+# the command, a short training, the Gymnasium wrapper, and a two-node Ray cluster losing a node.
+test-wheel: wheel
+	@bash scripts/test-wheel.sh
 
 # Opt-in: Stable-Baselines3 + PyTorch from PyPI (a multi-GB install): SAC with and without
 # DEFENDER on InvertedDoublePendulum-v5, and the DefenderCallback.

@@ -33,6 +33,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sysconfig
 import tempfile
 import time
 import warnings
@@ -45,10 +46,14 @@ _PR_SET_PDEATHSIG = 1
 
 
 def find_binary(binary: str | os.PathLike[str] | None = None) -> Path:
-    """The ``defender`` binary: ``binary`` if given, else ``$DEFENDER_BIN``, else ``defender``
-    on the PATH. Raises ``FileNotFoundError`` naming what was tried."""
+    """The ``defender`` binary: ``binary`` if given, else ``$DEFENDER_BIN``, else the
+    ``defender`` command the defender-rl wheel installed beside this Python (so that every node
+    of a cluster with the wheel has it, on the PATH or not), else ``defender`` on the PATH.
+    Raises ``FileNotFoundError`` naming what was tried."""
     tried = []
-    for candidate in (binary, os.environ.get("DEFENDER_BIN"), shutil.which("defender")):
+    # The wheel's command, if this install carries the binary (a build from source does not).
+    wheel = (Path(__file__).parent / "bin" / "defender").exists() and shutil.which("defender", path=sysconfig.get_path("scripts"))
+    for candidate in (binary, os.environ.get("DEFENDER_BIN"), wheel, shutil.which("defender")):
         if candidate:
             path = Path(candidate).resolve()
             if path.is_file() and os.access(path, os.X_OK):
@@ -57,7 +62,8 @@ def find_binary(binary: str | os.PathLike[str] | None = None) -> Path:
     raise FileNotFoundError(
         "cannot find the defender binary (tried: "
         + (", ".join(tried) or "nothing")
-        + "); build it with `cargo build --release -p defender-cli` and pass binary=... or set DEFENDER_BIN"
+        + "); install the defender-rl wheel (it carries the command), or build it with "
+        "`cargo build --release -p defender-cli` and pass binary=... or set DEFENDER_BIN"
     )
 
 
@@ -157,7 +163,9 @@ def _trial(config: dict[str, Any]) -> None:
             shutil.copytree(Path(d) / "checkpoint", run_dir / "checkpoint")
             shutil.copy2(Path(d) / "config.toml", run_dir / "config.toml")
 
-    args = [config["binary"], "train", "--config", str(config_path), "--out", str(run_dir)]
+    # The driver's binary, or this node's own (the wheel installed elsewhere on this node).
+    binary = config["binary"] if Path(config["binary"]).is_file() else str(find_binary())
+    args = [binary, "train", "--config", str(config_path), "--out", str(run_dir)]
     if (run_dir / "config.toml").exists():
         args.append("--resume")
     env = dict(os.environ, DEFENDER_NN_THREADS="1")

@@ -14,15 +14,18 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::run_config::{DefenderSection, RunConfig};
 
-/// Where the demonstration set shipped for `env_id` lives: `data/demos/<ENV>.npz` in the source
-/// tree the binary was built from (or `$DEFENDER_DATA/demos/<ENV>.npz`).
-pub fn shipped_demos(env_id: &str) -> PathBuf {
+/// Where the demonstration set shipped for `env_id` lives: `$DEFENDER_DATA/demos/<ENV>.npz`,
+/// else `data/demos/<ENV>.npz` in the source tree the binary was built from (named at build time
+/// by `DEFENDER_SHIPPED_DATA`, `.cargo/config.toml`; the wheel's build leaves it empty so that an
+/// installed binary never reaches for a source tree). `None` when neither is known.
+pub fn shipped_demos(env_id: &str) -> Option<PathBuf> {
     let data = std::env::var_os("DEFENDER_DATA")
+        .filter(|d| !d.is_empty())
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data")));
+        .or_else(|| option_env!("DEFENDER_SHIPPED_DATA").filter(|d| !d.is_empty()).map(PathBuf::from))?;
     // Canonical when it exists, so that config.toml records a readable path.
     let data = data.canonicalize().unwrap_or(data);
-    data.join("demos").join(format!("{env_id}.npz"))
+    Some(data.join("demos").join(format!("{env_id}.npz")))
 }
 
 /// A built run: the agent, the training environment (DEFENDER around the task when configured),
@@ -90,14 +93,20 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         bail!("a DEFENDER run takes its demonstrations from [defender] demos, not the top-level `demos` key");
     }
     let mut section = section.clone();
-    let path = section.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
-    if !path.exists() && section.demos.is_none() {
-        bail!(
-            "no demonstrations shipped for {env_id} (looked for {}); give --demos FILE.npz \
-             (make one with `defender demos collect --env {env_id} --out FILE.npz`)",
-            path.display()
-        );
-    }
+    let path = match (section.demos.clone(), shipped_demos(env_id)) {
+        (Some(path), _) => path,
+        (None, Some(path)) if path.exists() => path,
+        (None, looked) => {
+            let looked = looked.map_or("an installed defender carries none".into(), |p| {
+                format!("looked for {}", p.display())
+            });
+            bail!(
+                "no demonstrations shipped for {env_id} ({looked}); give --demos FILE.npz (make one \
+                 with `defender demos collect --env {env_id} --out FILE.npz`), or set DEFENDER_DATA \
+                 to a folder holding demos/{env_id}.npz (the repository's data/)"
+            )
+        }
+    };
     let sha256 = file_sha256(&path)?;
     if let Some(pinned) = &section.demos_sha256
         && *pinned != sha256

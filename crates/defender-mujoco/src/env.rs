@@ -86,7 +86,7 @@ impl MujocoEnv {
     pub fn new(task: Task) -> Result<Self> {
         crate::logging::route_mujoco_log_to_tracing();
         let spec = task.spec();
-        let model = MjModel::from_xml_string(task.xml())
+        let model = MjModel::from_xml_string(&task.xml()?)
             .map_err(|e| EnvError::Simulator(format!("{}: loading the MuJoCo model: {e}", spec.id)))?;
         let data = MjData::try_new(Box::new(model))
             .map_err(|e| EnvError::Simulator(format!("{}: allocating MuJoCo data: {e}", spec.id)))?;

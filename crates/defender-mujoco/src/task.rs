@@ -90,16 +90,43 @@ impl Task {
         self.spec().id
     }
 
-    /// The MuJoCo model, Gymnasium 1.4.0's own file, embedded at compile time. Walker2d-v5
-    /// uses `walker2d_v5.xml` (feet friction 1.9), not the older `walker2d.xml`.
-    pub fn xml(self) -> &'static str {
+    /// The file name of the task's MuJoCo model in Gymnasium's `envs/mujoco/assets/`.
+    /// Walker2d-v5 uses `walker2d_v5.xml` (feet friction 1.9), not the older `walker2d.xml`.
+    pub fn xml_file(self) -> &'static str {
         match self {
-            Task::Hopper => include_str!(concat!(env!("DEFENDER_GYM_ASSETS"), "/hopper.xml")),
-            Task::Walker2d => include_str!(concat!(env!("DEFENDER_GYM_ASSETS"), "/walker2d_v5.xml")),
-            Task::InvertedDoublePendulum => {
-                include_str!(concat!(env!("DEFENDER_GYM_ASSETS"), "/inverted_double_pendulum.xml"))
+            Task::Hopper => "hopper.xml",
+            Task::Walker2d => "walker2d_v5.xml",
+            Task::InvertedDoublePendulum => "inverted_double_pendulum.xml",
+        }
+    }
+
+    /// The MuJoCo model, Gymnasium's own file (the one of Gymnasium 1.4.0 in the tests), read
+    /// from the folder named by `DEFENDER_GYM_ASSETS` at run time (the `defender` command of the
+    /// Python wheel sets it to the installed `gymnasium`'s assets), else at build time
+    /// (`.cargo/config.toml`: the copy `make setup` extracts into `.deps/`). Read rather than
+    /// embedded, so that a wheel built from source carries no copy of Gymnasium's files.
+    ///
+    /// # Errors
+    /// [`EnvError::Simulator`] naming the file and the folders tried when it cannot be read.
+    pub fn xml(self) -> Result<String> {
+        let file = self.xml_file();
+        let mut tried = Vec::new();
+        let runtime = std::env::var_os("DEFENDER_GYM_ASSETS").filter(|d| !d.is_empty());
+        let build = option_env!("DEFENDER_GYM_ASSETS").filter(|d| !d.is_empty()).map(Into::into);
+        for dir in runtime.into_iter().chain(build) {
+            let path = std::path::Path::new(&dir).join(file);
+            match std::fs::read_to_string(&path) {
+                Ok(xml) => return Ok(xml),
+                Err(e) => tried.push(format!("{}: {e}", path.display())),
             }
         }
+        Err(EnvError::Simulator(format!(
+            "{}: cannot read Gymnasium's task file {file} ({}); install Gymnasium \
+             (`pip install gymnasium`) and use the `defender` command of the defender-rl wheel, \
+             or set DEFENDER_GYM_ASSETS to the folder gymnasium/envs/mujoco/assets",
+            self.id(),
+            if tried.is_empty() { "DEFENDER_GYM_ASSETS is not set".to_string() } else { tried.join("; ") }
+        )))
     }
 
     /// Scale of the initial-state noise (`reset_noise_scale`): 5e-3 for Hopper and Walker2d,

@@ -1,0 +1,1 @@
+../../build/mujoco_rpath.rs
