@@ -73,7 +73,9 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     let Some(section) = config.defender.as_ref() else {
         let mut replay_demos = None;
         if algo.demos_in_replay() {
-            let path = config.demos.clone().unwrap_or_else(|| shipped_demos(env_id));
+            let path = config.demos.clone().or_else(|| shipped_demos(env_id)).with_context(|| {
+                format!("demos_in_replay: no demonstrations shipped for {env_id}; give the top-level `demos` key")
+            })?;
             let (demos, sha256) = load_pinned(&path, config.demos_sha256.as_deref())?;
             demos.check_env(env_id, obs_dim, act_dim)?;
             preload(&mut *agent, &demos, &action_space)?;
