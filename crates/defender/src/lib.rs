@@ -21,7 +21,7 @@ mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
 pub use atomic::write_atomic;
-pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats};
+pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats, MAX_ABS_R_TASK};
 pub use demonstrations::{CostOptions, Demonstrations, Scaling};
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
 pub use dynamics_worker::DynamicsHandle;
