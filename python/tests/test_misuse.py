@@ -240,7 +240,7 @@ def test_arguments_of_the_wrong_kind_name_the_argument(drift_set):
         defender_rl.select(drift_set, num_demos=-1)
     with pytest.raises(TypeError, match=r"select\(min_lead=...\): expected a whole number .* \(a bool\)"):
         defender_rl.select(drift_set, min_lead=True)
-    with pytest.raises(DefenderError, match=r"select\(max_false_alarm=...\): expected a fraction from 0 to 1, got nan"):
+    with pytest.raises(DefenderError, match=r"select\(max_false_alarm=...\): expected a fraction from 0 to 1, got NaN"):
         defender_rl.select(drift_set, max_false_alarm=float("nan"))
     with pytest.raises(DefenderError, match=r"select_demos\(n\): expected a whole number from 1 to .*, got 0"):
         drift_set.select_demos(0)
