@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import pickle
 import warnings
@@ -70,6 +71,40 @@ def _check_box(space: gym.Space, what: str) -> gym.spaces.Box:
     return space
 
 
+def _whole(name: str, value: Any, low: int, high: int) -> int | None:
+    """``value`` as a Python int in ``[low, high]`` (None stays None); a bool is not a number here."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be a whole number or None, got {value!r} ({type(value).__name__})")
+    if not low <= int(value) <= high:
+        top = "2**64 - 1" if high == 2**64 - 1 else "2**63 - 1"
+        raise DefenderError(f"{name} must be between {low} and {top}, got {value}")
+    return int(value)
+
+
+def _dynamics_value(key: Any, value: Any) -> Any:
+    """A ``dynamics`` value checked before it is sent on (so that the error names the key)."""
+    where = f"dynamics[{key!r}]"
+    if key == "background":
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{where} must be True or False, got {value!r}")
+        return bool(value)
+    if key == "hidden":
+        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+            raise TypeError(f"{where} must be a list of layer widths, got {value!r}")
+        return [_whole(f"{where}[{i}]", w, 1, 2**63 - 1) for i, w in enumerate(value)]
+    if key in ("learning_rate", "error_ema_alpha"):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise TypeError(f"{where} must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise DefenderError(f"{where} must be a finite number, got {value!r}")
+        return float(value)
+    if key in ("batch_size", "buffer_size", "learning_starts", "train_freq", "gradient_steps"):
+        return _whole(where, value, 0, 2**63 - 1)
+    return value  # an unknown key: the Rust side names it and lists the known ones
+
+
 class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Wraps a Gymnasium environment with DEFENDER.
 
@@ -125,8 +160,22 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             shipped Hopper-v5, Walker2d-v5 and InvertedDoublePendulum-v5 sets, where it
             separates safe from unsafe demonstrations far better: docs/decisions.md).
 
+        check_finite: a NaN or infinity in a reward or observation of the wrapped environment, or
+            in an action given to :meth:`step`, raises :class:`DefenderError` naming the step, the
+            field and the element (as Stable-Baselines3's ``VecCheckNan`` does, but on by
+            default: such a value would otherwise reach the dynamics model and the agent).
+            ``False`` lets them through.
+
     The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
     ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
+
+    Threads: like any Gymnasium environment, one wrapper runs one episode, so step it from one
+    thread. If several threads call it anyway (e.g. a monitoring thread reading
+    :attr:`defender_stats`), each call waits for the one in progress to return, with the GIL
+    released (so the wrapped environment's own code can finish), and Ctrl-C still interrupts
+    the wait. A call from inside the wrapped environment's ``step``/``reset`` (or a callback it
+    runs) back into this wrapper cannot wait for itself: it raises ``RuntimeError`` at once,
+    naming the method called and the one in progress.
     """
 
     def __init__(
@@ -141,12 +190,13 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         dynamics: Mapping[str, Any] | None = None,
         seed: int | None = None,
         scaling: str | None = None,
+        check_finite: bool = True,
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
-            dynamics=dynamics, seed=seed, scaling=scaling,
+            dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
         _warn_statistics_inside(env)
@@ -160,20 +210,24 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise TypeError(f"mode must be 'state' or 'state-action', got {mode!r}")
         if scaling is not None and not isinstance(scaling, str):
             raise TypeError(f"scaling must be 'none', 'zscore' or None, got {scaling!r}")
-        if num_demos is not None and (not isinstance(num_demos, (int, np.integer)) or num_demos < 1):
-            raise DefenderError(f"num_demos must be a positive integer or None, got {num_demos!r}")
+        num_demos = _whole("num_demos", num_demos, 1, 2**63 - 1)
         if r_task is not None:
+            if isinstance(r_task, (bool, np.bool_)):
+                raise TypeError(f"r_task must be a number or None, got {r_task!r} (a bool)")
             try:
                 r_task = float(r_task)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise TypeError(f"r_task must be a number or None, got {r_task!r}") from None
-        if seed is not None and (not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**64):
-            raise DefenderError(f"seed must be an integer in [0, 2**64) or None, got {seed!r}")
+            if not math.isfinite(r_task):
+                raise DefenderError(f"r_task must be a finite number, got {r_task}")
+        seed = _whole("seed", seed, 0, 2**64 - 1)
+        if not isinstance(check_finite, (bool, np.bool_)):
+            raise TypeError(f"check_finite must be True or False, got {check_finite!r}")
         dynamics_json = None
         if dynamics is not None:
             if not isinstance(dynamics, Mapping):
                 raise TypeError(f"dynamics must be a dict of DynamicsConfig fields, got {type(dynamics).__name__}")
-            dynamics_json = json.dumps(dict(dynamics))
+            dynamics_json = json.dumps({k: _dynamics_value(k, v) for k, v in dynamics.items()})
         if isinstance(demos, (str, os.PathLike)):
             demos = os.fspath(demos)
         env_id = env.spec.id if env.spec is not None else None
@@ -188,11 +242,12 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             demos,
             strategy,
             mode,
-            None if num_demos is None else int(num_demos),
+            num_demos,
             r_task,
             dynamics_json,
-            None if seed is None else int(seed),
+            seed,
             scaling,
+            bool(check_finite),
         )
         self._check_horizon(demos, env, num_demos)
         # DynamicsConfig's default learning_starts is 1 (crates/defender/src/dynamics.rs).

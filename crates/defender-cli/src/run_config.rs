@@ -142,6 +142,59 @@ impl RunConfig {
     }
 }
 
+impl RunConfig {
+    /// Checks every value's range, section by section (one function per struct: a new key is
+    /// checked in its struct's function), so that a bad value is refused where the
+    /// configuration is read (`defender train`, and `defender sweep` for every run before any
+    /// starts), never after a run has begun. Whether `num_demos` fits the demonstration file is
+    /// [`RunConfig::check_demonstrations`]'s (it reads the file).
+    ///
+    /// # Errors
+    /// The first bad value, naming its section, key and value.
+    pub fn validate(&self) -> Result<()> {
+        self.budget()?;
+        if self.eval_episodes == 0 {
+            bail!("eval_episodes = 0: give at least 1 episode per evaluation");
+        }
+        if let Some(d) = &self.defender {
+            d.validate().context("[defender]")?;
+        }
+        if let Some(sac) = &self.sac {
+            sac.validate().context("[sac]")?;
+        }
+        if let Some(td3) = &self.td3 {
+            td3.validate().context("[td3]")?;
+        }
+        Ok(())
+    }
+
+    /// Checks `num_demos` against the demonstration file the run will read (`demos`, else the
+    /// one shipped for the task): at most the smaller of its two groups. `sizes` reads a file's
+    /// `(safe, unsafe)` group sizes (a sweep reads each file once for all its runs).
+    ///
+    /// # Errors
+    /// A file that cannot be read, or `num_demos` above what it holds.
+    pub fn check_demonstrations(&self, sizes: &mut impl FnMut(&Path) -> Result<(usize, usize)>) -> Result<()> {
+        let Some(d) = &self.defender else { return Ok(()) };
+        // With no file known (an installed binary, no --demos), the run itself says so when built.
+        let Some(path) = d.demos.clone().or_else(|| crate::setup::shipped_demos(&self.env)) else {
+            return Ok(());
+        };
+        let (safe, unsafe_) = sizes(&path)?;
+        if let Some(n) = d.num_demos
+            && n > safe.min(unsafe_)
+        {
+            bail!(
+                "[defender] num_demos = {n}: {} holds {safe} safe and {unsafe_} unsafe demonstrations; \
+                 give at most {}",
+                path.display(),
+                safe.min(unsafe_)
+            );
+        }
+        Ok(())
+    }
+}
+
 /// Reads a TOML run configuration, refusing unknown keys; its profile fills what it leaves out.
 pub fn read_config(path: &Path) -> Result<RunConfig> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -257,6 +310,14 @@ impl CostSection {
         Self { scaling, dtw, radius, metric, trajectory_cap, elements, ties }
     }
 
+    /// Checks every value's range (`trajectory_cap` at least 1, the radius bounded).
+    ///
+    /// # Errors
+    /// The first bad value, naming its key.
+    pub fn validate(&self) -> Result<()> {
+        Ok(self.options().validate()?)
+    }
+
     /// The method's cost options: an absent scaling is plain DTW.
     pub fn options(self) -> defender::CostOptions {
         let Self { scaling, dtw, radius, metric, trajectory_cap, elements, ties } = self;
@@ -294,6 +355,28 @@ impl DefenderSection {
             dynamics: Default::default(),
             selection: None,
         }
+    }
+
+    /// Checks every value's range (`num_demos` against the file: see
+    /// [`RunConfig::check_demonstrations`]).
+    ///
+    /// # Errors
+    /// The first bad value, naming its key and value.
+    pub fn validate(&self) -> Result<()> {
+        if self.num_demos == Some(0) {
+            bail!("num_demos = 0: give at least 1 demonstration per group (or leave it out for all)");
+        }
+        if let Some(r) = self.r_task
+            && !(r.is_finite() && r.abs() <= defender::MAX_ABS_R_TASK)
+        {
+            bail!(
+                "r_task = {r}: it must be a finite number of at most {:e} in absolute value",
+                defender::MAX_ABS_R_TASK
+            );
+        }
+        self.cost.validate().context("[defender.cost]")?;
+        self.dynamics.validate()?;
+        Ok(())
     }
 
     /// The method crate's configuration.

@@ -77,6 +77,17 @@ impl DirLock {
         Ok(DirLock { _file: file, path })
     }
 
+    /// Whether another process holds the lock of `dir` right now (a run going on). Creates
+    /// nothing: a directory without a lock file is not held.
+    #[must_use]
+    pub fn is_held(dir: &Path) -> bool {
+        match File::open(dir.join(Self::FILE_NAME)) {
+            // A shared lock is refused while an exclusive one is held; released on drop.
+            Ok(file) => matches!(file.try_lock_shared(), Err(TryLockError::WouldBlock)),
+            Err(_) => false,
+        }
+    }
+
     /// The lock file.
     #[must_use]
     pub fn path(&self) -> &Path {
@@ -95,7 +106,9 @@ mod tests {
         let err = DirLock::try_acquire(dir.path()).unwrap_err();
         assert!(matches!(err, LockError::Busy { .. }), "{err}");
         assert!(err.to_string().contains("in use by another process"), "{err}");
+        assert!(DirLock::is_held(dir.path()));
         drop(first);
+        assert!(!DirLock::is_held(dir.path()));
         DirLock::try_acquire(dir.path()).unwrap();
     }
 }

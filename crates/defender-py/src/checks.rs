@@ -121,3 +121,31 @@ pub(crate) fn read_sequence(
     }
     Ok((v, d))
 }
+
+/// A whole-number argument in `[min, max]`, read as Python's `operator.index` reads one (ints and
+/// numpy integers; not floats, not strings), where `bool` is refused: `num_demos=True` is a
+/// mistake, not 1. Every error names the argument `what` and the range.
+pub(crate) fn whole_arg(obj: &Bound<'_, PyAny>, what: &str, min: u64, max: u64) -> PyResult<u64> {
+    use pyo3::exceptions::PyTypeError;
+    let range = || format!("a whole number from {min} to {max}");
+    let type_name = || obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "?".into());
+    if obj.is_instance_of::<pyo3::types::PyBool>() || type_name() == "bool" {
+        return Err(PyTypeError::new_err(format!("{what}: expected {}, got {obj} (a bool)", range())));
+    }
+    let index = obj
+        .py()
+        .import("operator")?
+        .call_method1("index", (obj,))
+        .map_err(|_| PyTypeError::new_err(format!("{what}: expected {}, got {obj} ({})", range(), type_name())))?;
+    match index.extract::<i128>() {
+        Ok(v) if v >= i128::from(min) && v <= i128::from(max) => Ok(v as u64),
+        _ => Err(DefenderError::new_err(format!("{what}: expected {}, got {index}", range()))),
+    }
+}
+
+/// An optional count (`None` stays `None`), as [`whole_arg`] from `min`.
+pub(crate) fn opt_count(obj: Option<&Bound<'_, PyAny>>, what: &str, min: u64) -> PyResult<Option<usize>> {
+    obj.filter(|o| !o.is_none())
+        .map(|o| whole_arg(o, what, min, usize::MAX as u64).map(|v| v as usize))
+        .transpose()
+}

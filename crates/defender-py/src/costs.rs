@@ -119,8 +119,9 @@ pub(crate) fn trajectory_costs<'py>(
     act: &Bound<'py, PyAny>,
     strategy: &str,
     mode: &str,
-    num_demos: Option<usize>,
+    num_demos: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let num_demos = crate::checks::opt_count(num_demos, "trajectory_costs(num_demos=...)", 1)?;
     let strategy: Strategy = parse_name(strategy, "strategy")?;
     let mode = parse_mode(mode)?;
     let mut set = episode_set_arg(demos, "demos")?;
@@ -159,18 +160,19 @@ pub(crate) fn ablate<'py>(
     mode: &str,
     strategies: Option<Vec<String>>,
     as_numpy: bool,
-    threads: Option<usize>,
+    threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let threads = crate::checks::opt_count(threads, "ablate(threads=...)", 1)?;
     let mode = parse_mode(mode)?;
     let demos = episode_set_arg(demos, "demos")?;
     let episodes = episode_set_arg(episodes, "episodes")?;
     let list = parse_strategies(strategies)?;
     let rows = guard("ablate", || {
-        py.detach(|| {
+        crate::interrupt::interruptible(py, move |progress| {
             on_local_pool(threads, || {
-                defender::ablate(&demos, &episodes, list.as_deref(), mode, CostOptions::default(), &|_| {})
+                defender::ablate(&demos, &episodes, list.as_deref(), mode, CostOptions::default(), progress)
             })
-        })?
+        })??
         .map_err(defender_err)
     })?;
     if as_numpy {

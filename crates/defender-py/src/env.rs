@@ -4,7 +4,7 @@
 //! Python `DefenderWrapper` only forwards to it.
 
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 use defender::selection::StrategyChoice;
 use defender::{CostOptions, DefenderConfig, DefenderEnv, DynamicsConfig};
@@ -21,6 +21,7 @@ use crate::arrays::read_vec_f64;
 use crate::checks::{parse_cost, parse_mode, parse_name};
 use crate::episodes::episode_set_arg;
 use crate::select::{AutoChoice, choose_auto};
+use crate::turn::{Turn, Turns};
 use crate::{DefenderError, defender_err, env_err, guard};
 
 /// The wrapped Python environment as a `defender_rl::Env`. What `DefenderEnv` cannot carry (the
@@ -40,6 +41,10 @@ struct PyEnv {
     out_info: Option<Py<PyAny>>,
     /// An exception raised by the environment (or by reading what it returned), re-raised as is.
     error: Option<PyErr>,
+    /// Refuse a NaN or infinity in a reward or observation of the environment (`check_finite`).
+    check_finite: bool,
+    /// Steps of the wrapped environment since its last reset (named in errors).
+    episode_step: u64,
 }
 
 const RAISED: &str = "the wrapped Python environment raised";
@@ -63,14 +68,26 @@ impl PyEnv {
         read_vec_f64(obs, what, self.observation_space.dim(), &mut v)?;
         // DefenderEnv would skip a non-finite observation (as an unstable simulator step) and the
         // agent would get it unexplained: a Python environment returning one has a bug to fix.
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        if self.check_finite
+            && let Some(i) = v.iter().position(|x| !x.is_finite())
+        {
             return Err(DefenderError::new_err(format!(
-                "the wrapped environment's {}() returned an observation whose element {i} is not finite ({})",
+                "the wrapped environment's {}() returned an observation whose element {i} is {} {}; \
+                 fix the environment, or pass check_finite=False to let it through",
                 method.name(),
-                v[i]
+                v[i],
+                self.at_step(method)
             )));
         }
         Ok(v)
+    }
+
+    /// "at step N of the episode" (or "after reset()") for error messages.
+    fn at_step(&self, method: Method) -> String {
+        match method {
+            Method::Reset => "after reset()".into(),
+            Method::Step => format!("at step {} of the episode", self.episode_step),
+        }
     }
 }
 
@@ -113,6 +130,7 @@ impl Env for PyEnv {
             let (obs, info): (Bound<'_, PyAny>, Bound<'_, PyAny>) = out.extract().map_err(|_| {
                 PyTypeError::new_err("the wrapped environment's reset() must return a tuple (obs, info)")
             })?;
+            self.episode_step = 0;
             let v = self.read_obs(&obs, Method::Reset)?;
             self.out_obs = Some(obs.unbind());
             self.out_info = Some(info.unbind());
@@ -139,6 +157,14 @@ impl Env for PyEnv {
                     "the wrapped environment's step() returned a reward that is not a number",
                 )
             })?;
+            self.episode_step += 1;
+            if self.check_finite && !reward.is_finite() {
+                return Err(DefenderError::new_err(format!(
+                    "the wrapped environment's step() returned a reward of {reward} {}; fix the \
+                     environment, or pass check_finite=False to let it through",
+                    self.at_step(Method::Step)
+                )));
+            }
             let terminated = tuple.get_item(2)?.is_truthy()?;
             let truncated = tuple.get_item(3)?.is_truthy()?;
             let v = self.read_obs(&obs, Method::Step)?;
@@ -179,8 +205,13 @@ struct State {
 
 /// The Rust core of `defender_rl.DefenderWrapper` (use the wrapper; this class has no
 /// Gymnasium interface of its own).
+///
+/// One call at a time: a second thread waits for its turn with the GIL released, a re-entrant
+/// call raises at once ([`Turns`]).
 #[pyclass(module = "defender_rl._core")]
 pub struct Core {
+    turns: Turns,
+    /// Taken only inside a turn, so never contended: it makes `Core` `Sync` for PyO3.
     state: Mutex<State>,
     /// dtype of the observation space (a prediction is returned in it).
     obs_dtype: Py<PyAny>,
@@ -189,17 +220,45 @@ pub struct Core {
     auto: Option<AutoChoice>,
 }
 
+/// A call's exclusive access to the state. The fields drop in order: the state's lock, then the
+/// turn (which lets the next thread in).
+struct Entered<'a> {
+    state: MutexGuard<'a, State>,
+    _turn: Turn<'a>,
+}
+
+impl std::ops::Deref for Entered<'_> {
+    type Target = State;
+    fn deref(&self) -> &State {
+        &self.state
+    }
+}
+
+impl std::ops::DerefMut for Entered<'_> {
+    fn deref_mut(&mut self) -> &mut State {
+        &mut self.state
+    }
+}
+
 impl Core {
-    fn lock(&self) -> PyResult<std::sync::MutexGuard<'_, State>> {
+    /// The turn of `method` and the state, refused once the wrapper is closed.
+    fn lock(&self, py: Python<'_>, method: &'static str) -> PyResult<Entered<'_>> {
+        let entered = self.enter(py, method)?;
+        if entered.closed {
+            return Err(PyRuntimeError::new_err(format!(
+                "DefenderWrapper.{method}(): the wrapper is closed (close() was called); make a new one \
+                 to keep using DEFENDER"
+            )));
+        }
+        Ok(entered)
+    }
+
+    fn enter(&self, py: Python<'_>, method: &'static str) -> PyResult<Entered<'_>> {
+        let turn = self.turns.take(py, method)?;
         let state = self.state.lock().map_err(|_| {
             PyRuntimeError::new_err("DefenderWrapper: an earlier call failed inside Rust; make a new wrapper")
         })?;
-        if state.closed {
-            return Err(PyRuntimeError::new_err(
-                "DefenderWrapper is closed (close() was called): make a new one to keep using DEFENDER",
-            ));
-        }
-        Ok(state)
+        Ok(Entered { state, _turn: turn })
     }
 }
 
@@ -215,7 +274,7 @@ impl Core {
     /// `env`: the Python environment; `obs_low`/`obs_high`/`act_low`/`act_high`: its Box bounds;
     /// `dynamics`: a JSON object of `DynamicsConfig` fields.
     #[new]
-    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling))]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true))]
     #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
     fn new(
         py: Python<'_>,
@@ -234,6 +293,7 @@ impl Core {
         dynamics_json: Option<String>,
         seed: Option<u64>,
         scaling: Option<&str>,
+        check_finite: bool,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -247,10 +307,8 @@ impl Core {
                     .map_err(|e| DefenderError::new_err(format!("dynamics: {e}")))?,
                 None => DynamicsConfig::default(),
             };
-            if r_task.is_some_and(|r| !r.is_finite()) {
-                return Err(DefenderError::new_err(format!(
-                    "r_task must be a finite number, got {r_task:?}"
-                )));
+            if let Some(r) = r_task.filter(|r| !r.is_finite()) {
+                return Err(DefenderError::new_err(format!("r_task must be a finite number, got {r}")));
             }
             // Without a Gymnasium id (an environment made without gymnasium.make), the
             // demonstrations' id stands in: only dimensions are checked then.
@@ -266,6 +324,8 @@ impl Core {
                 out_obs: None,
                 out_info: None,
                 error: None,
+                check_finite,
+                episode_step: 0,
             };
             // strategy="auto": chosen here, from these demonstrations, as `defender train
             // --strategy auto` chooses (docs/decisions.md).
@@ -301,6 +361,7 @@ impl Core {
             env.dynamics().map_err(defender_err)?.set_parallelism(parallelism);
             let act_dim = env.action_space().dim();
             Ok(Self {
+                turns: Turns::default(),
                 state: Mutex::new(State { env, act: Vec::with_capacity(act_dim), closed: false }),
                 obs_dtype,
                 obs_dim,
@@ -325,10 +386,12 @@ impl Core {
                 ))
             })?),
         };
-        let mut state = self.lock()?;
+        let mut state = self.lock(py, "reset")?;
         guard("DefenderWrapper.reset", || {
             state.env.inner_mut().options = options;
-            match state.env.reset(seed) {
+            // Without the GIL: the wrapped environment's reset takes it back (PyEnv::reset).
+            let env = &mut state.env;
+            match py.detach(|| env.reset(seed)) {
                 Ok(_) => {
                     let inner = state.env.inner_mut();
                     let obs = inner.out_obs.take().unwrap_or_else(|| py.None());
@@ -345,13 +408,26 @@ impl Core {
 
     /// One step through `DefenderEnv::step`: `(obs, reward, terminated, truncated, info)`.
     fn step<'py>(&self, py: Python<'py>, action: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyTuple>> {
-        let mut guard_state = self.lock()?;
+        let mut guard_state = self.lock(py, "step")?;
         guard("DefenderWrapper.step", || {
             let state = &mut *guard_state;
             let act_dim = state.env.action_space().dim();
             read_vec_f64(action, "DefenderWrapper.step(action) (the action_space)", act_dim, &mut state.act)?;
+            if state.env.inner().check_finite
+                && let Some(i) = state.act.iter().position(|x| !x.is_finite())
+            {
+                return Err(DefenderError::new_err(format!(
+                    "DefenderWrapper.step(action): element {i} of the action is {} at step {} of the \
+                     episode; fix the agent, or pass check_finite=False to let it through",
+                    state.act[i],
+                    state.env.inner().episode_step + 1
+                )));
+            }
             state.env.inner_mut().action = Some(action.clone().unbind());
-            let result = state.env.step(&state.act);
+            // Without the GIL: the filter and the dynamics model are Rust; the wrapped
+            // environment's step takes the GIL back (PyEnv::step).
+            let (env, act) = (&mut state.env, &state.act);
+            let result = py.detach(|| env.step(act));
             state.env.inner_mut().action = None;
             let step = match result {
                 Ok(step) => step,
@@ -405,7 +481,7 @@ impl Core {
 
     /// Counters since construction (as `DefenderStats`).
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let s = self.lock()?.env.stats();
+        let s = self.lock(py, "defender_stats")?.env.stats();
         let d = PyDict::new(py);
         for (k, v) in [
             ("steps", s.steps),
@@ -422,23 +498,23 @@ impl Core {
     }
 
     /// The last step's decision: `(filtered, safe_cost, unsafe_cost)`, or None.
-    fn last_decision(&self) -> PyResult<Option<(bool, f64, f64)>> {
-        Ok(self.lock()?.env.last_decision().map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
+    fn last_decision(&self, py: Python<'_>) -> PyResult<Option<(bool, f64, f64)>> {
+        Ok(self.lock(py, "last_decision")?.env.last_decision().map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
     }
 
     /// How the last finished episode ended: `crashed`, `filtered`, `truncated`, or None.
-    fn last_outcome(&self) -> PyResult<Option<&'static str>> {
-        Ok(self.lock()?.env.last_outcome().map(outcome_name))
+    fn last_outcome(&self, py: Python<'_>) -> PyResult<Option<&'static str>> {
+        Ok(self.lock(py, "last_outcome")?.env.last_outcome().map(outcome_name))
     }
 
     /// The reward of a filtered step, as used.
-    fn r_task(&self) -> PyResult<f64> {
-        Ok(self.lock()?.env.r_task())
+    fn r_task(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.lock(py, "r_task")?.env.r_task())
     }
 
     /// The strategy and mode in use, as strings.
-    fn config(&self) -> PyResult<(String, String, Option<usize>)> {
-        let s = self.lock()?;
+    fn config(&self, py: Python<'_>) -> PyResult<(String, String, Option<usize>)> {
+        let s = self.lock(py, "config")?;
         let c = s.env.config();
         Ok((c.strategy.to_string(), c.mode.to_string(), c.num_demos))
     }
@@ -450,7 +526,7 @@ impl Core {
 
     /// The dynamics model's counters and prediction error (a dict).
     fn dynamics_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let state = self.lock()?;
+        let state = self.lock(py, "dynamics_info")?;
         let model = state.env.dynamics().map_err(defender_err)?;
         let err = model.prediction_error();
         let d = PyDict::new(py);
@@ -472,22 +548,26 @@ impl Core {
         obs: &Bound<'py, PyAny>,
         action: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let state = self.lock()?;
+        let mut state = self.lock(py, "predict")?;
         let act_dim = state.env.action_space().dim();
         let (mut o, mut a) = (Vec::new(), Vec::new());
         read_vec_f64(obs, "predict(obs)", self.obs_dim, &mut o)?;
         read_vec_f64(action, "predict(action)", act_dim, &mut a)?;
+        let env = &mut state.env;
         let out = guard("DefenderWrapper.predict", || {
-            let mut model = state.env.dynamics().map_err(defender_err)?;
-            model.predict(&o, &a).map_err(defender_err)
+            py.detach(move || {
+                let mut model = env.dynamics()?;
+                model.predict(&o, &a)
+            })
+            .map_err(defender_err)
         })?;
         Ok(PyArray1::from_vec(py, out).into_any())
     }
 
     /// Writes the dynamics model and the counters into the folder `path` (made if missing; it
     /// must be empty). Call between episodes, e.g. beside an agent's checkpoint.
-    fn save_state(&self, path: PathBuf) -> PyResult<()> {
-        let state = self.lock()?;
+    fn save_state(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let mut state = self.lock(py, "save_state")?;
         guard("DefenderWrapper.save_state", || {
             if path.exists() && std::fs::read_dir(&path).map(|mut d| d.next().is_some()).unwrap_or(true) {
                 return Err(DefenderError::new_err(format!(
@@ -497,20 +577,30 @@ impl Core {
             }
             std::fs::create_dir_all(&path)
                 .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))?;
-            state.env.save_state(&path).map_err(env_err)
+            let env = &mut state.env;
+            let path = &path;
+            py.detach(move || env.save_state(path)).map_err(env_err)
         })
     }
 
     /// Restores what `save_state` wrote; the next call must be `reset()`.
-    fn load_state(&self, path: PathBuf) -> PyResult<()> {
-        let mut state = self.lock()?;
-        guard("DefenderWrapper.load_state", || state.env.load_state(&path).map_err(env_err))
+    fn load_state(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let mut state = self.lock(py, "load_state")?;
+        let env = &mut state.env;
+        guard("DefenderWrapper.load_state", || py.detach(|| env.load_state(&path)).map_err(env_err))
     }
 
-    /// Stops the dynamics model's thread (if any) and refuses further calls.
-    fn close(&self) {
-        if let Ok(mut s) = self.state.lock() {
-            s.closed = true;
+    /// Refuses further calls (after the call in progress on another thread, if any).
+    ///
+    /// # Errors
+    /// A re-entrant call (from inside the wrapped environment's `step`), or Ctrl-C while waiting.
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        match self.enter(py, "close") {
+            Ok(mut s) => s.closed = true,
+            // A poisoned state (an earlier panic) is closed all the same.
+            Err(e) if e.is_instance_of::<PyRuntimeError>(py) && self.state.is_poisoned() => {}
+            Err(e) => return Err(e),
         }
+        Ok(())
     }
 }

@@ -300,7 +300,8 @@ impl EpisodeSet {
     }
 
     /// The first `n` demonstrations of each group, in file order (`num_demos`).
-    fn select_demos(&self, n: usize) -> PyResult<Self> {
+    fn select_demos(&self, n: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let n = crate::checks::whole_arg(n, "select_demos(n)", 1, usize::MAX as u64)? as usize;
         self.inner.select_demos(n).map(Self::from_inner).map_err(defender_err)
     }
 

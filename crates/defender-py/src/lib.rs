@@ -22,7 +22,9 @@ mod checks;
 mod costs;
 mod env;
 mod episodes;
+mod interrupt;
 mod select;
+mod turn;
 
 create_exception!(
     _core,

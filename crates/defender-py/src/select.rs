@@ -9,7 +9,7 @@ use defender::{CostOptions, EpisodeSet, Mode};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::checks::{parse_cost, parse_mode, parse_strategies, strategy_row};
+use crate::checks::{opt_count, parse_cost, parse_mode, parse_strategies, strategy_row, whole_arg};
 use crate::episodes::episode_set_arg;
 use crate::{DefenderError, defender_err, guard};
 
@@ -88,9 +88,12 @@ pub(crate) fn choose_auto(
 ) -> PyResult<AutoChoice> {
     let config = SelectionConfig::for_run(mode, num_demos, cost);
     let start = Instant::now();
-    let selection = py
-        .detach(|| on_local_pool(None, || select(demos, None, &config, &|_| {})))?
-        .map_err(|e| DefenderError::new_err(format!("strategy=\"auto\": {e}")))?;
+    // The selection's thread owns what it reads (it outlives this call after a Ctrl-C).
+    let (owned, run_config) = (demos.clone(), config.clone());
+    let selection = crate::interrupt::interruptible(py, move |progress| {
+        on_local_pool(None, || select(&owned, None, &run_config, progress))
+    })??
+    .map_err(|e| DefenderError::new_err(format!("strategy=\"auto\": {e}")))?;
     let Some(best) = selection.best().cloned() else {
         return Err(DefenderError::new_err(format!(
             "strategy=\"auto\": every strategy filters more than {}% of the held-out safe \
@@ -124,21 +127,32 @@ pub(crate) fn choose_auto(
 /// the choice when its `eligible` is true. Returns a list of dicts, or with `as_numpy` a dict of
 /// arrays.
 #[pyfunction(name = "select")]
-#[pyo3(signature = (demos, episodes = None, mode = "state", num_demos = None, equal = true, strategies = None, min_lead = 1, max_false_alarm = 0.1, as_numpy = false, scaling = "none"))]
+#[pyo3(signature = (demos, episodes = None, mode = "state", num_demos = None, equal = true, strategies = None, min_lead = None, max_false_alarm = 0.1, as_numpy = false, scaling = "none"))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of one Python function, as `defender select`'s flags
 pub(crate) fn select_strategies<'py>(
     py: Python<'py>,
     demos: &Bound<'py, PyAny>,
     episodes: Option<&Bound<'py, PyAny>>,
     mode: &str,
-    num_demos: Option<usize>,
+    num_demos: Option<&Bound<'py, PyAny>>,
     equal: bool,
     strategies: Option<Vec<String>>,
-    min_lead: usize,
+    min_lead: Option<&Bound<'py, PyAny>>,
     max_false_alarm: f64,
     as_numpy: bool,
     scaling: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let num_demos = opt_count(num_demos, "select(num_demos=...)", 1)?;
+    // None: the default lead of 1 step.
+    let min_lead = match min_lead.filter(|m| !m.is_none()) {
+        Some(m) => whole_arg(m, "select(min_lead=...)", 0, usize::MAX as u64)? as usize,
+        None => 1,
+    };
+    if !(0.0..=1.0).contains(&max_false_alarm) {
+        return Err(DefenderError::new_err(format!(
+            "select(max_false_alarm=...): expected a fraction from 0 to 1, got {max_false_alarm}"
+        )));
+    }
     let mode = parse_mode(mode)?;
     let costs = if scaling == "auto" { AUTO_COSTS.to_vec() } else { vec![parse_cost(scaling)?] };
     let demos = episode_set_arg(demos, "demos")?;
@@ -146,8 +160,10 @@ pub(crate) fn select_strategies<'py>(
     let strategies = parse_strategies(strategies)?;
     let config = SelectionConfig { mode, num_demos, equal, strategies, min_lead, max_false_alarm, costs };
     let selection = guard("select", || {
-        py.detach(|| on_local_pool(None, || select(&demos, episodes.as_ref(), &config, &|_| {})))?
-            .map_err(defender_err)
+        crate::interrupt::interruptible(py, move |progress| {
+            on_local_pool(None, || select(&demos, episodes.as_ref(), &config, progress))
+        })??
+        .map_err(defender_err)
     })?;
     if as_numpy { numpy_rows(py, &selection) } else { dict_rows(py, &selection) }
 }

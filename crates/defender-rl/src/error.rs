@@ -118,6 +118,24 @@ pub enum RlError {
         /// What the hook reported.
         source: Box<dyn std::error::Error + Send + Sync>,
     },
+    /// The environment returned a NaN or infinite reward or observation: the run stops before it
+    /// reaches the agent's replay buffer (and the tables); its last checkpoint is kept.
+    #[error(
+        "the environment returned a non-finite {field} ({value}, element {index}) at step {step} \
+         (episode {episode}); the run stops here, and its last checkpoint is kept"
+    )]
+    NonFiniteStep {
+        /// `reward` or `observation`.
+        field: &'static str,
+        /// The element (0 for the reward).
+        index: usize,
+        /// The value.
+        value: f64,
+        /// The run's step count, this step included.
+        step: u64,
+        /// The episode (0-based).
+        episode: u64,
+    },
     /// Training produced a non-finite value (diverged).
     #[error("non-finite {what} at update {update}")]
     Diverged {

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, resolve, write_atomic, write_json};
-use crate::env::Env;
+use crate::env::{Env, Step};
 use crate::error::RlError;
 use crate::replay::Transition;
 use crate::seed::{SeedPurpose, derive_seed};
@@ -318,6 +318,21 @@ fn hook_err(hook: &'static str) -> impl FnOnce(HookError) -> RlError {
     move |source| RlError::Hook { hook, source }
 }
 
+/// Refuses a NaN or infinite reward or observation from the training environment, naming it:
+/// stored, it would turn the agent's losses into NaN (a `Diverged` error far from its cause) and
+/// the episode's return in `metrics.csv` into NaN. (The MuJoCo tasks never return one: an
+/// unstable simulation ends its episode as `unstable`, with a finite observation.)
+fn check_finite(step: &Step, total_steps: u64, episode: u64) -> Result<(), RlError> {
+    let bad = |field, index, value| RlError::NonFiniteStep { field, index, value, step: total_steps, episode };
+    if !step.reward.is_finite() {
+        return Err(bad("reward", 0, step.reward));
+    }
+    match step.obs.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(bad("observation", i, step.obs[i])),
+        None => Ok(()),
+    }
+}
+
 impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
     /// A trainer for a fresh run.
     ///
@@ -504,6 +519,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 self.rescale(&action, &mut env_action);
                 let step = self.env.step(&env_action)?;
                 self.state.total_steps += 1;
+                check_finite(&step, self.state.total_steps, episode)?;
                 // The agent stores the normalised action; `terminated` and `truncated` stay apart.
                 let transition = Transition {
                     obs: &obs,

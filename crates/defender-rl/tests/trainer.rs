@@ -132,3 +132,41 @@ fn refuses_environments_that_do_not_fit_the_agent() {
     let config = TrainerConfig::new(0, Budget::Steps(10));
     assert!(Trainer::new(agent, Pendulum::new(), Pendulum::new(), config).is_err());
 }
+
+/// Pendulum whose reward turns NaN at the run's 30th step.
+struct NanAt30(Pendulum, u64);
+
+impl Env for NanAt30 {
+    fn id(&self) -> &str {
+        "NanAt30"
+    }
+    fn observation_space(&self) -> &BoxSpace {
+        self.0.observation_space()
+    }
+    fn action_space(&self) -> &BoxSpace {
+        self.0.action_space()
+    }
+    fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
+        self.0.reset(seed)
+    }
+    fn step(&mut self, action: &[f64]) -> defender_rl::Result<Step> {
+        let mut step = self.0.step(action)?;
+        self.1 += 1;
+        if self.1 == 30 {
+            step.reward = f64::NAN;
+        }
+        Ok(step)
+    }
+}
+
+/// A NaN from the environment stops the run naming the step, not a NaN in the agent's losses
+/// or in the tables later (issue 27).
+#[test]
+fn a_non_finite_reward_stops_the_run_naming_the_step() {
+    let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Steps(100)) };
+    let mut trainer =
+        Trainer::new(small_sac().build(3, 1, 0).unwrap(), NanAt30(Pendulum::new(), 0), Pendulum::new(), config)
+            .unwrap();
+    let err = trainer.run(&mut NoHooks).unwrap_err().to_string();
+    assert!(err.contains("non-finite reward (NaN, element 0) at step 30 (episode 0)"), "{err}");
+}

@@ -82,19 +82,27 @@ impl DynamicsConfig {
         Self { learning_rate: 3e-4, batch_size: 256, train_freq: 1, gradient_steps: 1, ..Self::default() }
     }
 
-    fn check(&self) -> Result<()> {
+    /// Checks every value's range: the one check of `[defender.dynamics]`, made by
+    /// [`DynamicsModel::new`] and by a run's configuration when it is read.
+    ///
+    /// # Errors
+    /// [`DefenderError::Config`] naming the first bad field.
+    pub fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(DefenderError::Config(format!("dynamics: {what}")));
         if self.hidden.contains(&0) {
             return bad("hidden widths must be >= 1");
         }
         if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
-            return bad("learning_rate must be > 0");
+            return bad(&format!("learning_rate = {}: it must be a finite number > 0", self.learning_rate));
         }
         if self.batch_size == 0 || self.buffer_size == 0 || self.train_freq == 0 {
-            return bad("batch_size, buffer_size and train_freq must be >= 1");
+            return bad(&format!(
+                "batch_size = {}, buffer_size = {}, train_freq = {}: each must be >= 1",
+                self.batch_size, self.buffer_size, self.train_freq
+            ));
         }
         if !(0.0..=1.0).contains(&self.error_ema_alpha) || self.error_ema_alpha == 0.0 {
-            return bad("error_ema_alpha must be in (0, 1]");
+            return bad(&format!("error_ema_alpha = {}: it must be in (0, 1]", self.error_ema_alpha));
         }
         Ok(())
     }
@@ -161,7 +169,7 @@ impl DynamicsModel {
         config: DynamicsConfig,
         rng: &mut R,
     ) -> Result<Self> {
-        config.check()?;
+        config.validate()?;
         if obs_dim == 0 || act_dim == 0 {
             return Err(DefenderError::Config(format!(
                 "dynamics: obs_dim and act_dim must be >= 1, got {obs_dim} and {act_dim}"

@@ -23,9 +23,9 @@ mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
 pub use atomic::write_atomic;
-pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats};
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
 pub use cost_stream::CostStream;
+pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats, MAX_ABS_R_TASK};
 pub use demonstrations::Demonstrations;
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
 pub use dynamics_worker::DynamicsHandle;

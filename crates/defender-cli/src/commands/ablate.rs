@@ -65,12 +65,16 @@ pub fn run(args: AblateArgs) -> Result<()> {
             args.episodes.len()
         );
     }
+    // The ablation can take minutes to hours: refuse an unwritable --out before it starts.
+    crate::run_dir::check_writable(&args.out).context("--out")?;
     if !args.combine.is_empty() {
         return combine(&args);
     }
+    refuse_repeats("--episodes", &args.episodes)?;
+    if args.num_demos == Some(0) {
+        bail!("--num-demos 0: give at least 1 demonstration per group (or leave it out for all)");
+    }
     let mode: Mode = args.mode.parse()?;
-    // The ablation can take minutes to hours: refuse an unwritable --out before it starts.
-    crate::run_dir::check_writable(&args.out).context("--out")?;
     let mut strategies: Vec<Strategy> = if args.strategies == "all" {
         Strategy::all().collect()
     } else {
@@ -111,6 +115,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
 
 /// `--combine`: the mean over per-task rankings, as the ablation of several tasks ranks them.
 fn combine(args: &AblateArgs) -> Result<()> {
+    refuse_repeats("--combine", &args.combine)?;
     let mut per_task = Vec::new();
     for path in &args.combine {
         let rows = defender::read_csv(path).with_context(|| format!("--combine {}", path.display()))?;
@@ -125,6 +130,27 @@ fn combine(args: &AblateArgs) -> Result<()> {
     defender::write_csv(&args.out, &rows)?;
     print_top(&rows, args.top);
     println!("{} strategies ranked over {} tasks -> {}", rows.len(), per_task.len(), args.out.display());
+    Ok(())
+}
+
+/// Refuses the same input given twice (the same file by another path, or a copy with the same
+/// bytes): its runs would count twice in the mean over tasks, without a word.
+fn refuse_repeats(flag: &str, paths: &[PathBuf]) -> Result<()> {
+    let mut seen: Vec<(&PathBuf, PathBuf, Vec<u8>)> = Vec::new();
+    for path in paths {
+        let canonical = std::fs::canonicalize(path).with_context(|| format!("{flag} {}", path.display()))?;
+        let bytes = std::fs::read(path).with_context(|| format!("{flag} {}: cannot read it", path.display()))?;
+        if let Some((first, _, _)) = seen.iter().find(|(_, c, b)| *c == canonical || *b == bytes) {
+            bail!(
+                "{flag} {} is given twice ({} holds the same {}): each task's input counts once; \
+                 remove the repeat",
+                path.display(),
+                first.display(),
+                if canonical == std::fs::canonicalize(first)? { "file" } else { "bytes" }
+            );
+        }
+        seen.push((path, canonical, bytes));
+    }
     Ok(())
 }
 

@@ -31,7 +31,8 @@ pub struct SweepArgs {
     /// Runs at a time [default: the number of cores].
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// List the runs and their state (complete, stopped, new) without running anything.
+    /// List the runs and their state (complete, changed, running, stopped, new) without running
+    /// anything; every run's configuration is checked first.
     #[arg(long)]
     pub list: bool,
     /// With --list: one JSON object per run (name, dir, state, config), for other schedulers.
@@ -41,6 +42,9 @@ pub struct SweepArgs {
 
 /// Runs `defender sweep`.
 pub fn run(args: SweepArgs) -> Result<()> {
+    if args.out.exists() && !args.out.is_dir() {
+        bail!("--out {}: exists and is not a directory; give a sweep directory (made if missing)", args.out.display());
+    }
     let experiment = experiment::load(&args.experiment)?;
     if args.list {
         for run in &experiment.runs {
@@ -55,6 +59,8 @@ pub fn run(args: SweepArgs) -> Result<()> {
                 {
                     "changed"
                 }
+                // Its lock is held: a `defender train` is writing it right now.
+                RunState::Stopped | RunState::New if defender_io::DirLock::is_held(&dir) => "running",
                 state => state.as_str(),
             };
             if args.json {

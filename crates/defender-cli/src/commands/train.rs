@@ -26,7 +26,7 @@ use crate::update_log::{self, UpdateLog};
 #[command(after_help = "Examples:
   defender train --env Hopper-v5 --algo sac --steps 300000 --out runs/hopper-sac-bare
   defender train --env Hopper-v5 --algo sac --strategy MeanDemoW5/MeanDemoW10 --steps 300000 --out runs/hopper-sac-def
-  defender train --config my.toml --out runs/x          (flags override the file)
+  defender train --config my.toml --out runs/x          (flags override the file and fill what it leaves out)
   defender train --out runs/x --resume                  (continue a stopped run)
 
 Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
@@ -121,10 +121,11 @@ fn parse_mode(s: &str) -> Result<Mode, String> {
     s.parse().map_err(|e: defender::DefenderError| e.to_string())
 }
 
-/// Resolves flags over an optional configuration file.
+/// Resolves flags over an optional configuration file: a flag wins over the file, and fills
+/// what a partial file leaves out (`env`, `algo`).
 fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     let config = match &args.config {
-        Some(path) => read_config(path)?,
+        Some(path) => read_partial_config(path, args)?,
         None => RunConfig {
             profile: Default::default(),
             demos: None,
@@ -159,7 +160,28 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
         given.insert("profile".into(), profile.name().into());
     }
     let written = toml::Table::try_from(&config)?;
-    with_profile(&written, &given)
+    let config = with_profile(&written, &given)?;
+    config.validate()?;
+    Ok(config)
+}
+
+/// A `--config` file with the keys it leaves out that flags give (`env` from `--env`, `algo`
+/// from `--algo`, else `sac`) filled in before it is read, so that `--config base.toml --env
+/// Hopper-v5` works; flags then override the rest ([`apply_flags`]).
+fn read_partial_config(path: &Path, args: &TrainArgs) -> Result<RunConfig> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut table: toml::Table =
+        toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))?;
+    if !table.contains_key("env") {
+        let env = args.env.clone().with_context(|| {
+            format!("{}: no `env`; add env = \"Hopper-v5\" to the file or give --env", path.display())
+        })?;
+        table.insert("env".into(), env.into());
+    }
+    if !table.contains_key("algo") {
+        table.insert("algo".into(), args.algo.unwrap_or(Algo::Sac).as_str().into());
+    }
+    table.try_into().with_context(|| format!("{}: not a valid run configuration", path.display()))
 }
 
 /// Applies the command's flags over `config`.
@@ -357,7 +379,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
     let path = args.out.join("config.toml");
     let saved = read_config(&path).with_context(|| format!("--resume needs {}", path.display()))?;
     let base = match &args.config {
-        Some(file) => read_config(file)?,
+        Some(file) => read_partial_config(file, args)?,
         None => saved.clone(),
     };
     let requested = apply_flags(base, args)?.keeping_automatic_choice_of(&saved);

@@ -203,10 +203,30 @@ pub fn strategy_slug(strategy: &str) -> String {
     if strategy == "none" { "bare".to_string() } else { strategy.replace('/', "-") }
 }
 
-/// Reads and expands an experiment file; every error names the file and, where it can, the line.
+/// Reads and expands an experiment file, and checks every run's configuration before any
+/// starts (its values, and `num_demos` against its demonstration file); every error names the
+/// file, the run and, where it can, the line, the key and the value.
 pub fn load(path: &Path) -> Result<Experiment> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse(&text).with_context(|| format!("{}: not a valid experiment", path.display()))
+    let experiment = parse(&text).with_context(|| format!("{}: not a valid experiment", path.display()))?;
+    // Each demonstration file is read once, for all the runs that use it.
+    let mut sizes: BTreeMap<std::path::PathBuf, (usize, usize)> = BTreeMap::new();
+    let mut read = |demos: &Path| -> Result<(usize, usize)> {
+        if let Some(&s) = sizes.get(demos) {
+            return Ok(s);
+        }
+        let s = defender::EpisodeSet::load(demos)
+            .with_context(|| format!("cannot read the demonstrations {}", demos.display()))?
+            .group_sizes();
+        sizes.insert(demos.to_path_buf(), s);
+        Ok(s)
+    };
+    for run in &experiment.runs {
+        run.config.check_demonstrations(&mut read).with_context(|| {
+            format!("{}: not a valid experiment: run '{}'", path.display(), run.name)
+        })?;
+    }
+    Ok(experiment)
 }
 
 /// Parses and expands an experiment from its text.
@@ -420,7 +440,9 @@ fn run_config(
         }
     }
     let text = toml::to_string(&table)?;
-    read_config_str(&text)
+    let config = read_config_str(&text)?;
+    config.validate()?;
+    Ok(config)
 }
 
 #[cfg(test)]
@@ -496,5 +518,34 @@ learning_starts = 50
         refused(&GRID.replace("\"none\", ", "\"none\", \"none\", "), &["appears twice", "line 5"]);
         refused(&GRID.replace("Hopper-v5\"]", "Hoper-v5\"]"), &["unknown task 'Hoper-v5'", "line 4"]);
         refused(&GRID.replace("steps = 1000\n", ""), &["budget"]);
+    }
+
+    /// Values that parse but cannot run are refused when the file is read, naming the run, the
+    /// section, the key and the value (issue 27), not run by run after others have started.
+    #[test]
+    fn bad_values_are_refused_before_any_run() {
+        let first = "run 'InvertedDoublePendulum-v5/sac-bare-s0'";
+        refused(&GRID.replace("learning_starts = 50", "learning_rate = nan"), &[first, "[sac]", "learning_rate = NaN"]);
+        refused(&GRID.replace("learning_starts = 50", "learning_rate = -0.001"), &["[sac]", "learning_rate = -0.001"]);
+        refused(&GRID.replace("learning_starts = 50", "batch_size = 0"), &["[sac]", "batch_size = 0"]);
+        refused(&GRID.replace("eval_freq = 500", "eval_freq = 500\neval_episodes = 0"), &["eval_episodes = 0"]);
+        let defender_run = "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n0-s0'";
+        refused(&GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [0]"), &[defender_run, "num_demos = 0"]);
+        let dynamics = GRID.replace("[run.sac]", "[run.defender.dynamics]\nlearning_rate = nan\n[run.sac]");
+        refused(&dynamics, &["[defender]", "dynamics: learning_rate = NaN"]);
+        let r_task = GRID.replace("[run.sac]", "[run.defender]\nr_task = inf\n[run.sac]");
+        refused(&r_task, &["[defender]", "r_task = inf"]);
+    }
+
+    #[test]
+    fn num_demos_beyond_the_file_is_refused_at_load() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("x.toml");
+        let text = GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [50, 51]");
+        std::fs::write(&file, text).unwrap();
+        let err = format!("{:#}", load(&file).unwrap_err());
+        for e in ["x.toml", "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n51-s0'", "num_demos = 51", "give at most 50"] {
+            assert!(err.contains(e), "'{e}' not in: {err}");
+        }
     }
 }

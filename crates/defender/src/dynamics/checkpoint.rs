@@ -119,7 +119,7 @@ impl DynamicsModel {
         let text = std::fs::read_to_string(&json).map_err(|e| DefenderError::io(&json, e))?;
         let bad = |what: String| DefenderError::Checkpoint { path: json.clone(), what };
         let mut s: SavedState = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        s.config.check()?;
+        s.config.validate()?;
         let rng = match s.rng.take() {
             Some(rng) => rng,
             None => legacy_rng(&s).map_err(bad)?,
