@@ -6,8 +6,8 @@ mod cost_meter;
 mod demo_horizon;
 #[cfg(test)]
 mod fuzz;
-mod profile;
 mod inert;
+mod profile;
 mod progress;
 mod resume;
 mod run_config;

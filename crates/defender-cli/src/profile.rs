@@ -119,7 +119,9 @@ mod tests {
 
     #[test]
     fn the_authors_profile_sets_exactly_its_settings() {
-        let t = expanded("profile = \"authors\"\nalgo = \"sac\"\n[defender]\nstrategy = \"MeanBothW5/MeanBothW5\"\n");
+        let t = expanded(
+            "profile = \"authors\"\nalgo = \"sac\"\n[defender]\nstrategy = \"MeanBothW5/MeanBothW5\"\n",
+        );
         let sac = t["sac"].as_table().unwrap();
         let keys: Vec<&str> = sac.keys().map(String::as_str).collect();
         assert_eq!(
@@ -147,7 +149,8 @@ mod tests {
         assert!(!bare["sac"].as_table().unwrap().contains_key("demos_in_replay"));
         assert!(!bare.contains_key("defender"));
         // TD3: demonstrations in the buffer, no cloning term, no entropy coefficient.
-        let td3 = expanded("profile = \"authors\"\nalgo = \"td3\"\n[defender]\nstrategy = \"MinBoth/MinBoth\"\n");
+        let td3 =
+            expanded("profile = \"authors\"\nalgo = \"td3\"\n[defender]\nstrategy = \"MinBoth/MinBoth\"\n");
         let keys: Vec<&str> = td3["td3"].as_table().unwrap().keys().map(String::as_str).collect();
         assert_eq!(keys, ["demos_in_replay", "learning_starts", "terminal_on_truncation", "warmup"]);
     }

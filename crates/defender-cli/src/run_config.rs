@@ -174,7 +174,10 @@ impl RunConfig {
     ///
     /// # Errors
     /// A file that cannot be read, or `num_demos` above what it holds.
-    pub fn check_demonstrations(&self, sizes: &mut impl FnMut(&Path) -> Result<(usize, usize)>) -> Result<()> {
+    pub fn check_demonstrations(
+        &self,
+        sizes: &mut impl FnMut(&Path) -> Result<(usize, usize)>,
+    ) -> Result<()> {
         let Some(d) = &self.defender else { return Ok(()) };
         // With no file known (an installed binary, no --demos), the run itself says so when built.
         let Some(path) = d.demos.clone().or_else(|| crate::setup::shipped_demos(&self.env)) else {
@@ -306,7 +309,8 @@ impl Default for CostSection {
 impl CostSection {
     /// The section of `options`, with the scaling given or left to `auto`.
     pub fn from_options(options: defender::CostOptions, scaling: Option<defender::Scaling>) -> Self {
-        let defender::CostOptions { scaling: _, dtw, radius, metric, trajectory_cap, elements, ties } = options;
+        let defender::CostOptions { scaling: _, dtw, radius, metric, trajectory_cap, elements, ties } =
+            options;
         Self { scaling, dtw, radius, metric, trajectory_cap, elements, ties }
     }
 

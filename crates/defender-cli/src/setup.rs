@@ -6,9 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use defender::selection::StrategyChoice;
 use defender::{DefenderEnv, EpisodeRecorder, EpisodeSet, Meta};
-use defender_rl::{
-    Agent, Env, EpisodeRecord, Outcome, Parallelism, SeedPurpose, Transition, derive_seed,
-};
+use defender_rl::{Agent, Env, EpisodeRecord, Outcome, Parallelism, SeedPurpose, Transition, derive_seed};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -74,7 +72,9 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         let mut replay_demos = None;
         if algo.demos_in_replay() {
             let path = config.demos.clone().or_else(|| shipped_demos(env_id)).with_context(|| {
-                format!("demos_in_replay: no demonstrations shipped for {env_id}; give the top-level `demos` key")
+                format!(
+                    "demos_in_replay: no demonstrations shipped for {env_id}; give the top-level `demos` key"
+                )
             })?;
             let (demos, sha256) = load_pinned(&path, config.demos_sha256.as_deref())?;
             demos.check_env(env_id, obs_dim, act_dim)?;

@@ -335,7 +335,11 @@ impl Core {
                 StrategyChoice::Fixed(s) => (s, given_cost.unwrap_or_default(), None),
                 StrategyChoice::Auto => {
                     let auto = choose_auto(py, &demos, mode, num_demos, given_cost)?;
-                    (auto.best.strategy, CostOptions { scaling: auto.best.scaling, ..given_cost.unwrap_or_default() }, Some(auto))
+                    (
+                        auto.best.strategy,
+                        CostOptions { scaling: auto.best.scaling, ..given_cost.unwrap_or_default() },
+                        Some(auto),
+                    )
                 }
             };
             let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, dynamics };
@@ -499,7 +503,11 @@ impl Core {
 
     /// The last step's decision: `(filtered, safe_cost, unsafe_cost)`, or None.
     fn last_decision(&self, py: Python<'_>) -> PyResult<Option<(bool, f64, f64)>> {
-        Ok(self.lock(py, "last_decision")?.env.last_decision().map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
+        Ok(self
+            .lock(py, "last_decision")?
+            .env
+            .last_decision()
+            .map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
     }
 
     /// How the last finished episode ended: `crashed`, `filtered`, `truncated`, or None.

@@ -26,7 +26,11 @@ impl Experience {
 
     /// Stores one transition and counts the step; `terminal_on_truncation` stores a time-limit
     /// cut as terminal (the authors' code).
-    pub(crate) fn observe(&mut self, transition: &Transition<'_>, terminal_on_truncation: bool) -> Result<(), RlError> {
+    pub(crate) fn observe(
+        &mut self,
+        transition: &Transition<'_>,
+        terminal_on_truncation: bool,
+    ) -> Result<(), RlError> {
         self.buffer.push(&as_stored(transition, terminal_on_truncation))?;
         self.num_timesteps += 1;
         Ok(())

@@ -265,7 +265,9 @@ impl ReplayBuffer {
         }
         let flags: Vec<u8> = (0..n)
             .map(|i| {
-                u8::from(self.terminated[i]) | (u8::from(self.truncated[i]) << 1) | (u8::from(self.bc[i]) << 2)
+                u8::from(self.terminated[i])
+                    | (u8::from(self.truncated[i]) << 1)
+                    | (u8::from(self.bc[i]) << 2)
             })
             .collect();
         write(&flags)?;

@@ -520,8 +520,13 @@ mod tests {
     /// As [`small`] with `config`'s algorithm settings; every third transition is a safe
     /// demonstration's.
     fn small_with(config: SacConfig) -> Sac {
-        let config =
-            SacConfig { net_arch: vec![16, 16], batch_size: 8, buffer_size: 100, learning_starts: 0, ..config };
+        let config = SacConfig {
+            net_arch: vec![16, 16],
+            batch_size: 8,
+            buffer_size: 100,
+            learning_starts: 0,
+            ..config
+        };
         let mut sac = Sac::new(config, 3, 2, 5).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         for k in 0..40 {
@@ -590,7 +595,8 @@ mod tests {
         ws.dact.fill(0.0);
         // Authors: mean(bc) = 0.5 times the MSE of both rows, (0.25 + 1) / 2.
         assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.3125).abs() < 1e-7);
-        assert!((ws.dact[1] - 0.5 * 2.0 * -1.0 / 2.0).abs() < 1e-7, "{:?}", ws.dact);
+        // d/da~ of row 1: share 0.5 * 2 * (0 - 1) / (2 rows * 1 dim) = -0.5.
+        assert!((ws.dact[1] + 0.5).abs() < 1e-7, "{:?}", ws.dact);
     }
 
     /// The actor's analytic gradient against central finite differences of its loss.

@@ -106,7 +106,10 @@ impl Ablation {
     }
 
     fn streams(&self) -> Result<(CostStream, CostStream)> {
-        Ok((self.demos.cost_stream(false, &self.safe_windows)?, self.demos.cost_stream(true, &self.unsafe_windows)?))
+        Ok((
+            self.demos.cost_stream(false, &self.safe_windows)?,
+            self.demos.cost_stream(true, &self.unsafe_windows)?,
+        ))
     }
 
     /// Replays one recorded episode under every strategy (SPEC section 7).

@@ -79,7 +79,12 @@ pub struct Recompute {
 }
 
 impl Recompute {
-    pub(crate) fn new(seqs: Arc<Vec<Vec<f32>>>, dim: usize, windows: &[Window], options: CostOptions) -> Self {
+    pub(crate) fn new(
+        seqs: Arc<Vec<Vec<f32>>>,
+        dim: usize,
+        windows: &[Window],
+        options: CostOptions,
+    ) -> Self {
         let n = seqs.len();
         let cap = options.trajectory_cap.unwrap_or(0);
         Self {

@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use defender_dtw::References;
 
-pub use crate::cost::{CostOptions, Scaling};
 use crate::cost::Elements;
+pub use crate::cost::{CostOptions, Scaling};
 use crate::cost_stream::{CostStream, Recompute};
 use crate::window::Window;
 

@@ -30,10 +30,10 @@ impl Decision {
     /// executes and only `safe > unsafe` filters; unordered (NaN) costs filter under both rules.
     pub fn with_ties(safe_cost: f64, unsafe_cost: f64, ties: Ties) -> Self {
         use std::cmp::Ordering::{Equal, Less};
-        let filtered = match (safe_cost.partial_cmp(&unsafe_cost), ties) {
-            (Some(Less), _) | (Some(Equal), Ties::Execute) => false,
-            _ => true,
-        };
+        let filtered = !matches!(
+            (safe_cost.partial_cmp(&unsafe_cost), ties),
+            (Some(Less), _) | (Some(Equal), Ties::Execute)
+        );
         Self { filtered, safe_cost, unsafe_cost }
     }
 }

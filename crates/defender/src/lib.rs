@@ -2,9 +2,9 @@
 
 mod ablation;
 mod atomic;
+pub mod collection;
 mod cost;
 mod cost_stream;
-pub mod collection;
 mod defender_env;
 mod demonstrations;
 mod dynamics;
