@@ -131,7 +131,10 @@ impl RunConfig {
     ///
     /// # Errors
     /// A file that cannot be read, or `num_demos` above what it holds.
-    pub fn check_demonstrations(&self, sizes: &mut impl FnMut(&Path) -> Result<(usize, usize)>) -> Result<()> {
+    pub fn check_demonstrations(
+        &self,
+        sizes: &mut impl FnMut(&Path) -> Result<(usize, usize)>,
+    ) -> Result<()> {
         let Some(d) = &self.defender else { return Ok(()) };
         let path = d.demos.clone().unwrap_or_else(|| crate::setup::shipped_demos(&self.env));
         let (safe, unsafe_) = sizes(&path)?;

@@ -357,13 +357,15 @@ fn collect_train_ablate_report() {
     let copy = root.join("copy.csv");
     std::fs::copy(&scores, &copy).unwrap();
     for repeat in [scores_s, copy.to_str().unwrap()] {
-        let refused = defender(&["ablate", "--combine", scores_s, repeat, "--out", combined.to_str().unwrap()]);
+        let refused =
+            defender(&["ablate", "--combine", scores_s, repeat, "--out", combined.to_str().unwrap()]);
         let message = String::from_utf8_lossy(&refused.stderr);
         assert!(!refused.status.success() && message.contains("is given twice"), "{message}");
     }
     // An --out that cannot be written is refused before any scoring.
     let nowhere = root.join("scores.csv").join("x.csv");
-    let refused = defender(&["ablate", "--demos", demos_s, "--episodes", rec, "--out", nowhere.to_str().unwrap()]);
+    let refused =
+        defender(&["ablate", "--demos", demos_s, "--episodes", rec, "--out", nowhere.to_str().unwrap()]);
     let message = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && message.contains("--out"), "{message}");
     assert!(!message.contains("episodes scored"), "{message}");

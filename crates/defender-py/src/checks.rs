@@ -132,11 +132,9 @@ pub(crate) fn whole_arg(obj: &Bound<'_, PyAny>, what: &str, min: u64, max: u64) 
     if obj.is_instance_of::<pyo3::types::PyBool>() || type_name() == "bool" {
         return Err(PyTypeError::new_err(format!("{what}: expected {}, got {obj} (a bool)", range())));
     }
-    let index = obj
-        .py()
-        .import("operator")?
-        .call_method1("index", (obj,))
-        .map_err(|_| PyTypeError::new_err(format!("{what}: expected {}, got {obj} ({})", range(), type_name())))?;
+    let index = obj.py().import("operator")?.call_method1("index", (obj,)).map_err(|_| {
+        PyTypeError::new_err(format!("{what}: expected {}, got {obj} ({})", range(), type_name()))
+    })?;
     match index.extract::<i128>() {
         Ok(v) if v >= i128::from(min) && v <= i128::from(max) => Ok(v as u64),
         _ => Err(DefenderError::new_err(format!("{what}: expected {}, got {index}", range()))),

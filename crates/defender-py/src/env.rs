@@ -499,7 +499,11 @@ impl Core {
 
     /// The last step's decision: `(filtered, safe_cost, unsafe_cost)`, or None.
     fn last_decision(&self, py: Python<'_>) -> PyResult<Option<(bool, f64, f64)>> {
-        Ok(self.lock(py, "last_decision")?.env.last_decision().map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
+        Ok(self
+            .lock(py, "last_decision")?
+            .env
+            .last_decision()
+            .map(|d| (d.filtered, d.safe_cost, d.unsafe_cost)))
     }
 
     /// How the last finished episode ended: `crashed`, `filtered`, `truncated`, or None.

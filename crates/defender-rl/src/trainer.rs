@@ -323,7 +323,8 @@ fn hook_err(hook: &'static str) -> impl FnOnce(HookError) -> RlError {
 /// the episode's return in `metrics.csv` into NaN. (The MuJoCo tasks never return one: an
 /// unstable simulation ends its episode as `unstable`, with a finite observation.)
 fn check_finite(step: &Step, total_steps: u64, episode: u64) -> Result<(), RlError> {
-    let bad = |field, index, value| RlError::NonFiniteStep { field, index, value, step: total_steps, episode };
+    let bad =
+        |field, index, value| RlError::NonFiniteStep { field, index, value, step: total_steps, episode };
     if !step.reward.is_finite() {
         return Err(bad("reward", 0, step.reward));
     }

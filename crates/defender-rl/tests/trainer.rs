@@ -164,9 +164,13 @@ impl Env for NanAt30 {
 #[test]
 fn a_non_finite_reward_stops_the_run_naming_the_step() {
     let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Steps(100)) };
-    let mut trainer =
-        Trainer::new(small_sac().build(3, 1, 0).unwrap(), NanAt30(Pendulum::new(), 0), Pendulum::new(), config)
-            .unwrap();
+    let mut trainer = Trainer::new(
+        small_sac().build(3, 1, 0).unwrap(),
+        NanAt30(Pendulum::new(), 0),
+        Pendulum::new(),
+        config,
+    )
+    .unwrap();
     let err = trainer.run(&mut NoHooks).unwrap_err().to_string();
     assert!(err.contains("non-finite reward (NaN, element 0) at step 30 (episode 0)"), "{err}");
 }

@@ -139,7 +139,8 @@ fn refuse_repeats(flag: &str, paths: &[PathBuf]) -> Result<()> {
     let mut seen: Vec<(&PathBuf, PathBuf, Vec<u8>)> = Vec::new();
     for path in paths {
         let canonical = std::fs::canonicalize(path).with_context(|| format!("{flag} {}", path.display()))?;
-        let bytes = std::fs::read(path).with_context(|| format!("{flag} {}: cannot read it", path.display()))?;
+        let bytes =
+            std::fs::read(path).with_context(|| format!("{flag} {}: cannot read it", path.display()))?;
         if let Some((first, _, _)) = seen.iter().find(|(_, c, b)| *c == canonical || *b == bytes) {
             bail!(
                 "{flag} {} is given twice ({} holds the same {}): each task's input counts once; \

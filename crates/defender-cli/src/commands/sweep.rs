@@ -43,7 +43,10 @@ pub struct SweepArgs {
 /// Runs `defender sweep`.
 pub fn run(args: SweepArgs) -> Result<()> {
     if args.out.exists() && !args.out.is_dir() {
-        bail!("--out {}: exists and is not a directory; give a sweep directory (made if missing)", args.out.display());
+        bail!(
+            "--out {}: exists and is not a directory; give a sweep directory (made if missing)",
+            args.out.display()
+        );
     }
     let experiment = experiment::load(&args.experiment)?;
     if args.list {

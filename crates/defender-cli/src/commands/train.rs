@@ -148,8 +148,8 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
 /// Hopper-v5` works; flags then override the rest ([`apply_flags`]).
 fn read_partial_config(path: &Path, args: &TrainArgs) -> Result<RunConfig> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut table: toml::Table =
-        toml::from_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))?;
+    let mut table: toml::Table = toml::from_str(&text)
+        .with_context(|| format!("{}: not a valid run configuration", path.display()))?;
     if !table.contains_key("env") {
         let env = args.env.clone().with_context(|| {
             format!("{}: no `env`; add env = \"Hopper-v5\" to the file or give --env", path.display())

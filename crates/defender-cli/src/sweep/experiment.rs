@@ -180,9 +180,9 @@ pub fn load(path: &Path) -> Result<Experiment> {
         Ok(s)
     };
     for run in &experiment.runs {
-        run.config.check_demonstrations(&mut read).with_context(|| {
-            format!("{}: not a valid experiment: run '{}'", path.display(), run.name)
-        })?;
+        run.config
+            .check_demonstrations(&mut read)
+            .with_context(|| format!("{}: not a valid experiment: run '{}'", path.display(), run.name))?;
     }
     Ok(experiment)
 }
@@ -440,12 +440,24 @@ learning_starts = 50
     #[test]
     fn bad_values_are_refused_before_any_run() {
         let first = "run 'InvertedDoublePendulum-v5/sac-bare-s0'";
-        refused(&GRID.replace("learning_starts = 50", "learning_rate = nan"), &[first, "[sac]", "learning_rate = NaN"]);
-        refused(&GRID.replace("learning_starts = 50", "learning_rate = -0.001"), &["[sac]", "learning_rate = -0.001"]);
+        refused(
+            &GRID.replace("learning_starts = 50", "learning_rate = nan"),
+            &[first, "[sac]", "learning_rate = NaN"],
+        );
+        refused(
+            &GRID.replace("learning_starts = 50", "learning_rate = -0.001"),
+            &["[sac]", "learning_rate = -0.001"],
+        );
         refused(&GRID.replace("learning_starts = 50", "batch_size = 0"), &["[sac]", "batch_size = 0"]);
-        refused(&GRID.replace("eval_freq = 500", "eval_freq = 500\neval_episodes = 0"), &["eval_episodes = 0"]);
+        refused(
+            &GRID.replace("eval_freq = 500", "eval_freq = 500\neval_episodes = 0"),
+            &["eval_episodes = 0"],
+        );
         let defender_run = "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n0-s0'";
-        refused(&GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [0]"), &[defender_run, "num_demos = 0"]);
+        refused(
+            &GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [0]"),
+            &[defender_run, "num_demos = 0"],
+        );
         let dynamics = GRID.replace("[run.sac]", "[run.defender.dynamics]\nlearning_rate = nan\n[run.sac]");
         refused(&dynamics, &["[defender]", "dynamics: learning_rate = NaN"]);
         let r_task = GRID.replace("[run.sac]", "[run.defender]\nr_task = inf\n[run.sac]");
@@ -459,7 +471,12 @@ learning_starts = 50
         let text = GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [50, 51]");
         std::fs::write(&file, text).unwrap();
         let err = format!("{:#}", load(&file).unwrap_err());
-        for e in ["x.toml", "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n51-s0'", "num_demos = 51", "give at most 50"] {
+        for e in [
+            "x.toml",
+            "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n51-s0'",
+            "num_demos = 51",
+            "give at most 50",
+        ] {
             assert!(err.contains(e), "'{e}' not in: {err}");
         }
     }
