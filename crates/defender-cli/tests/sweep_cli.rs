@@ -197,3 +197,47 @@ fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
     let third = defender(&["sweep", s(&experiment), "--out", s(&out)]);
     assert!(text(&third).contains("1 complete, 0 to run"), "{}", text(&third));
 }
+
+/// `--list` shows a run whose lock is held (a `defender train` writing it now) as `running`, not
+/// `stopped`; an `--out` that is a regular file is refused (issue 27).
+#[test]
+fn list_shows_a_locked_run_as_running() {
+    let root = tempfile::tempdir().unwrap();
+    let out = root.path().join("sweep");
+    let dir = out.join(RUNS[0]);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("config.toml"), "").unwrap();
+    let listed = text(&defender(&["sweep", s(&smoke()), "--out", s(&out), "--list"]));
+    assert!(listed.contains(&format!("stopped  {}", RUNS[0])), "{listed}");
+    let lock = defender_io::DirLock::try_acquire(&dir).unwrap();
+    let listed = text(&defender(&["sweep", s(&smoke()), "--out", s(&out), "--list"]));
+    assert!(listed.contains(&format!("running  {}", RUNS[0])), "{listed}");
+    assert!(listed.contains(&format!("new      {}", RUNS[1])), "{listed}");
+    drop(lock);
+    let file = root.path().join("file");
+    std::fs::write(&file, "x").unwrap();
+    let refused = defender(&["sweep", s(&smoke()), "--out", s(&file), "--list"]);
+    assert!(
+        !refused.status.success() && text(&refused).contains("exists and is not a directory"),
+        "{}",
+        text(&refused)
+    );
+}
+
+/// Flags fill what a partial `--config` leaves out; its values are checked before anything
+/// runs, naming the file's section, key and value.
+#[test]
+fn flags_fill_a_partial_config_and_bad_values_are_named() {
+    let root = tempfile::tempdir().unwrap();
+    let config = root.path().join("partial.toml");
+    std::fs::write(&config, "total_steps = 10\n[sac]\nbatch_size = 0\n").unwrap();
+    let out = root.path().join("run");
+    let no_env = text(&defender(&["train", "--config", s(&config), "--out", s(&out)]));
+    assert!(no_env.contains("no `env`; add env = \"Hopper-v5\" to the file or give --env"), "{no_env}");
+    let filled =
+        defender(&["train", "--config", s(&config), "--env", "InvertedDoublePendulum-v5", "--out", s(&out)]);
+    let message = text(&filled);
+    assert!(!filled.status.success(), "{message}");
+    assert!(message.contains("[sac]") && message.contains("batch_size = 0"), "{message}");
+    assert!(!out.join("config.toml").exists(), "nothing was started: {message}");
+}
