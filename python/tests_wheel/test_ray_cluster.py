@@ -137,20 +137,25 @@ def cluster(tmp_path):
     port = free_port()
     address = f"127.0.0.1:{port}"
     # Quick to declare a node dead (defaults: 5 missed health checks of 3 s).
+    # Ray >= 2.5x turns token authentication on for `ray start --head`, with the token in
+    # ~/.ray; a cluster on 127.0.0.1 that lives for one test needs none (nor a shared HOME's file).
+    os.environ["RAY_AUTH_MODE"] = "disabled"
     env = dict(os.environ, RAY_health_check_period_ms="500", RAY_health_check_failure_threshold="4")
     common = ["--node-ip-address", "127.0.0.1", "--num-cpus", "1", "--object-store-memory", "100000000",
               "--disable-usage-stats", f"--dashboard-agent-listen-port={free_port()}"]  # fmt: skip
     try:
-        subprocess.run(
+        head = subprocess.run(
             ["ray", "start", "--head", f"--port={port}", "--include-dashboard=false",
-             f"--ray-client-server-port={free_port()}", f"--temp-dir={tmp_path / 'ray-head'}", *common],
-            env=env, check=True, capture_output=True, timeout=120,
+             f"--temp-dir={tmp_path / 'ray-head'}", *common],
+            env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
+        assert head.returncode == 0, head.stderr
         common[-1] = f"--dashboard-agent-listen-port={free_port()}"
-        subprocess.run(
+        worker = subprocess.run(
             ["ray", "start", f"--address={address}", f"--temp-dir={tmp_path / 'ray-worker'}", *common],
-            env=env, check=True, capture_output=True, timeout=120,
+            env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
+        assert worker.returncode == 0, worker.stderr
         worker_temp = str(tmp_path / "ray-worker")
         raylets = [pid for pid, cmd in processes().items() if "raylet" in cmd.split("\0")[0] and worker_temp in cmd]
         assert len(raylets) == 1, raylets
@@ -158,6 +163,7 @@ def cluster(tmp_path):
     finally:
         ray.shutdown()
         end_descendants()
+        os.environ.pop("RAY_AUTH_MODE", None)
         libc.prctl(_PR_SET_CHILD_SUBREAPER, 0)
 
 
