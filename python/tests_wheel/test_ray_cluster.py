@@ -16,6 +16,7 @@ import pathlib
 import shutil
 import signal
 import socket
+import tempfile
 import subprocess
 import sys
 import threading
@@ -136,6 +137,8 @@ def cluster(tmp_path):
     assert libc.prctl(_PR_SET_CHILD_SUBREAPER, 1) == 0
     port = free_port()
     address = f"127.0.0.1:{port}"
+    # Short: Ray's sockets live under it, and a socket's path is at most 107 bytes.
+    temp = pathlib.Path(tempfile.mkdtemp(prefix="dray", dir="/tmp"))
     # Quick to declare a node dead (defaults: 5 missed health checks of 3 s).
     # Ray >= 2.5x turns token authentication on for `ray start --head`, with the token in
     # ~/.ray; a cluster on 127.0.0.1 that lives for one test needs none (nor a shared HOME's file).
@@ -146,17 +149,17 @@ def cluster(tmp_path):
     try:
         head = subprocess.run(
             ["ray", "start", "--head", f"--port={port}", "--include-dashboard=false",
-             f"--temp-dir={tmp_path / 'ray-head'}", *common],
+             f"--temp-dir={temp / 'h'}", *common],
             env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
         assert head.returncode == 0, head.stderr
         common[-1] = f"--dashboard-agent-listen-port={free_port()}"
         worker = subprocess.run(
-            ["ray", "start", f"--address={address}", f"--temp-dir={tmp_path / 'ray-worker'}", *common],
+            ["ray", "start", f"--address={address}", f"--temp-dir={temp / 'w'}", *common],
             env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
         assert worker.returncode == 0, worker.stderr
-        worker_temp = str(tmp_path / "ray-worker")
+        worker_temp = str(temp / "w")
         raylets = [pid for pid, cmd in processes().items() if "raylet" in cmd.split("\0")[0] and worker_temp in cmd]
         assert len(raylets) == 1, raylets
         yield address, raylets[0]
@@ -164,6 +167,7 @@ def cluster(tmp_path):
         ray.shutdown()
         end_descendants()
         os.environ.pop("RAY_AUTH_MODE", None)
+        shutil.rmtree(temp, ignore_errors=True)
         libc.prctl(_PR_SET_CHILD_SUBREAPER, 0)
 
 
