@@ -120,12 +120,12 @@ def tune_has_checkpoint(sweep: pathlib.Path, defender: bool) -> bool:
 
 
 def report_without_time(binary: pathlib.Path, runs: pathlib.Path) -> list[list[str]]:
-    """``defender report --format csv`` without its wall-time columns (% Time differs between
-    any two executions)."""
+    """``defender report --format csv`` without its wall-time columns (``time_pct_*``,
+    ``wall_seconds_*``: they differ between any two executions)."""
     done = subprocess.run([str(binary), "report", str(runs), "--format", "csv"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     rows = [line.split(",") for line in done.stdout.strip().splitlines()]
-    keep = [i for i, name in enumerate(rows[0]) if "time" not in name.lower()]
+    keep = [i for i, name in enumerate(rows[0]) if not name.startswith(("time_", "wall_"))]
     return [[row[i] for i in keep] for row in rows]
 
 
