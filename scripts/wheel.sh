@@ -31,8 +31,10 @@ fi
 
 # The venv first on the PATH: cargo-zigbuild and maturin find zig through its python.
 export PATH="$ROOT/$VENV/bin:$PATH"
-# A target folder of its own: a different linker and profile, kept apart from target/release.
-export CARGO_TARGET_DIR="$ROOT/target/wheel"
+# Target folders of their own: a different linker and profile, kept apart from target/release;
+# and one per tool, as cargo-zigbuild's and maturin's zig wrappers differ and would otherwise
+# rebuild each other's build scripts, and so everything after them, on every `make wheel`.
+WHEEL_TARGET="$ROOT/target/wheel"
 export CARGO_INCREMENTAL=0
 export CARGO_PROFILE_RELEASE_DEBUG=false
 export CARGO_PROFILE_RELEASE_STRIP=symbols
@@ -52,16 +54,16 @@ echo "wheel: the sdist"
 maturin sdist --out dist
 
 echo "wheel: building the defender binary for $TARGET, glibc $GLIBC (zig)"
-cargo zigbuild --quiet --release -p defender-cli --target "$TARGET.$GLIBC"
+CARGO_TARGET_DIR="$WHEEL_TARGET/cli" cargo zigbuild --quiet --release -p defender-cli --target "$TARGET.$GLIBC"
 BIN=python/defender_rl/bin
 trap 'rm -rf "$BIN"' EXIT
 mkdir -p "$BIN"
-cp "$CARGO_TARGET_DIR/$TARGET/release/defender" "$BIN/defender"
+cp "$WHEEL_TARGET/cli/$TARGET/release/defender" "$BIN/defender"
 # The file's time goes into the wheel's zip: the commit's, not the build's.
 touch -d "@$SOURCE_DATE_EPOCH" "$BIN/defender"
 
 echo "wheel: building the wheel (maturin, zig, manylinux2014)"
-maturin build --quiet --release --strip --zig --compatibility manylinux2014 \
+CARGO_TARGET_DIR="$WHEEL_TARGET/py" maturin build --quiet --release --strip --zig --compatibility manylinux2014 \
   --target "$TARGET" --out dist
 rm -rf "$BIN"
 

@@ -16,6 +16,7 @@ import pathlib
 import shutil
 import signal
 import socket
+import tempfile
 import subprocess
 import sys
 import threading
@@ -119,12 +120,12 @@ def tune_has_checkpoint(sweep: pathlib.Path, defender: bool) -> bool:
 
 
 def report_without_time(binary: pathlib.Path, runs: pathlib.Path) -> list[list[str]]:
-    """``defender report --format csv`` without its wall-time columns (% Time differs between
-    any two executions)."""
+    """``defender report --format csv`` without its wall-time columns (``time_pct_*``,
+    ``wall_seconds_*``: they differ between any two executions)."""
     done = subprocess.run([str(binary), "report", str(runs), "--format", "csv"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     rows = [line.split(",") for line in done.stdout.strip().splitlines()]
-    keep = [i for i, name in enumerate(rows[0]) if "time" not in name.lower()]
+    keep = [i for i, name in enumerate(rows[0]) if not name.startswith(("time_", "wall_"))]
     return [[row[i] for i in keep] for row in rows]
 
 
@@ -136,28 +137,37 @@ def cluster(tmp_path):
     assert libc.prctl(_PR_SET_CHILD_SUBREAPER, 1) == 0
     port = free_port()
     address = f"127.0.0.1:{port}"
+    # Short: Ray's sockets live under it, and a socket's path is at most 107 bytes.
+    temp = pathlib.Path(tempfile.mkdtemp(prefix="dray", dir="/tmp"))
     # Quick to declare a node dead (defaults: 5 missed health checks of 3 s).
+    # Ray >= 2.5x turns token authentication on for `ray start --head`, with the token in
+    # ~/.ray; a cluster on 127.0.0.1 that lives for one test needs none (nor a shared HOME's file).
+    os.environ["RAY_AUTH_MODE"] = "disabled"
     env = dict(os.environ, RAY_health_check_period_ms="500", RAY_health_check_failure_threshold="4")
     common = ["--node-ip-address", "127.0.0.1", "--num-cpus", "1", "--object-store-memory", "100000000",
               "--disable-usage-stats", f"--dashboard-agent-listen-port={free_port()}"]  # fmt: skip
     try:
-        subprocess.run(
+        head = subprocess.run(
             ["ray", "start", "--head", f"--port={port}", "--include-dashboard=false",
-             f"--ray-client-server-port={free_port()}", f"--temp-dir={tmp_path / 'ray-head'}", *common],
-            env=env, check=True, capture_output=True, timeout=120,
+             f"--temp-dir={temp / 'h'}", *common],
+            env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
+        assert head.returncode == 0, head.stderr
         common[-1] = f"--dashboard-agent-listen-port={free_port()}"
-        subprocess.run(
-            ["ray", "start", f"--address={address}", f"--temp-dir={tmp_path / 'ray-worker'}", *common],
-            env=env, check=True, capture_output=True, timeout=120,
+        worker = subprocess.run(
+            ["ray", "start", f"--address={address}", f"--temp-dir={temp / 'w'}", *common],
+            env=env, capture_output=True, text=True, timeout=120,
         )  # fmt: skip
-        worker_temp = str(tmp_path / "ray-worker")
+        assert worker.returncode == 0, worker.stderr
+        worker_temp = str(temp / "w")
         raylets = [pid for pid, cmd in processes().items() if "raylet" in cmd.split("\0")[0] and worker_temp in cmd]
         assert len(raylets) == 1, raylets
         yield address, raylets[0]
     finally:
         ray.shutdown()
         end_descendants()
+        os.environ.pop("RAY_AUTH_MODE", None)
+        shutil.rmtree(temp, ignore_errors=True)
         libc.prctl(_PR_SET_CHILD_SUBREAPER, 0)
 
 

@@ -69,7 +69,7 @@ def test_train_500_steps_with_a_strategy(tmp_path):
     config = (out / "config.toml").read_text()
     assert "MinDemoW5/MinDemoW10" in config and str(SOURCE) not in config
     rows = (out / "metrics.csv").read_text().splitlines()[1:]
-    assert int(rows[-1].split(",")[1]) == 500
+    assert 400 < int(rows[-1].split(",")[1]) <= 500  # the last, unfinished episode has no row
     assert any(r.split(",")[4] == "filtered" for r in rows)  # DEFENDER was at work
 
 
@@ -94,8 +94,14 @@ def test_missing_or_wrong_mujoco_and_gymnasium_are_named(tmp_path):
     assert "libmujoco.so.3.17.0" in done.stderr and "libmujoco.so.3.3.0" in done.stderr, done.stderr
     assert "pip install mujoco==3.17.0" in done.stderr
     shutil.rmtree(shadow / "mujoco")
+    # A Gymnasium that works (defender_rl imports it) but has no task files where they belong.
+    import gymnasium
+
+    real = pathlib.Path(gymnasium.__file__).parent
     (shadow / "gymnasium").mkdir()
-    (shadow / "gymnasium" / "__init__.py").write_text("")
+    (shadow / "gymnasium" / "__init__.py").write_text(
+        f"__path__ = [{str(real)!r}]\nexec(open({str(real / '__init__.py')!r}).read())\n"
+    )
     done = defender("env", "list", cwd=tmp_path, env=env)
     assert done.returncode == 2
     assert "hopper.xml" in done.stderr and "gymnasium" in done.stderr, done.stderr
