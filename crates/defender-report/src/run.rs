@@ -350,7 +350,9 @@ impl Run {
         let (c, s) = (&self.config, &self.summary);
         let summary_path = self.dir.join(SUMMARY_FILE);
         let invalid = |message: String| ReportError::Invalid { path: summary_path.clone(), message };
-        if (s.env.as_str(), s.algo.as_str(), s.seed) != (c.env.as_str(), c.algo.as_str(), c.seed) {
+        // The row's algorithm label carries the arm in brackets after the algorithm's name.
+        let algo = c.algo.split(' ').next().unwrap_or_default();
+        if (s.env.as_str(), s.algo.as_str(), s.seed) != (c.env.as_str(), algo, c.seed) {
             return Err(invalid(format!(
                 "env/algo/seed {}/{}/{} disagree with config.toml's {}/{}/{}",
                 s.env, s.algo, s.seed, c.env, c.algo, c.seed
@@ -481,6 +483,43 @@ struct RawConfig {
     total_steps: u64,
     total_episodes: u64,
     defender: Option<RawDefender>,
+    #[serde(default)]
+    profile: Option<String>,
+    #[serde(default)]
+    sac: Option<RawAgent>,
+    #[serde(default)]
+    td3: Option<RawAgent>,
+}
+
+/// What sets an agent apart in a report: the authors' demonstrations in its buffer and cloning.
+#[derive(Deserialize, Default)]
+struct RawAgent {
+    #[serde(default)]
+    demos_in_replay: Option<bool>,
+    #[serde(default)]
+    bc_weight: Option<f64>,
+}
+
+/// The algorithm as a report row names it: `sac`, or with what sets the run apart from SPEC's
+/// agent in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac (authors, no demos)`), so
+/// that the arms of an experiment (docs/experiments.md) form rows of their own.
+fn algo_label(raw: &RawConfig) -> String {
+    let authors = raw.profile.as_deref() == Some("authors");
+    let agent = raw.sac.as_ref().or(raw.td3.as_ref());
+    let demos = agent.and_then(|a| a.demos_in_replay).unwrap_or(false);
+    let bc = agent.and_then(|a| a.bc_weight).is_some_and(|w| w > 0.0);
+    let mut tags: Vec<&str> = Vec::new();
+    if authors {
+        tags.push("authors");
+    }
+    // The profile gives a DEFENDER run the demonstrations; anything else is worth naming.
+    let expected = authors && raw.defender.is_some();
+    match (demos, expected) {
+        (true, false) => tags.push(if bc { "demos+BC" } else { "demos" }),
+        (false, true) => tags.push("no demos"),
+        _ => {}
+    }
+    if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
 }
 
 #[derive(Deserialize)]
@@ -512,6 +551,7 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
             )));
         }
     };
+    let algo = algo_label(&raw);
     let filter = match raw.defender {
         None => None,
         Some(d) => {
@@ -533,7 +573,7 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
             })
         }
     };
-    Ok(RunSettings { env: raw.env, algo: raw.algo, seed: raw.seed, budget, filter })
+    Ok(RunSettings { env: raw.env, algo, seed: raw.seed, budget, filter })
 }
 
 const METRICS_COLUMNS: &[&str] = &["episode", "total_steps", "return", "length", "outcome", "wall_seconds"];
