@@ -374,7 +374,8 @@ impl DefenderSection {
             && !(r.is_finite() && r.abs() <= defender::MAX_ABS_R_TASK)
         {
             bail!(
-                "r_task = {r}: it must be a finite number of at most {:e} in absolute value",
+                "r_task = {r:e} is out of range: it must be finite and at most {:e} in absolute \
+                 value (it becomes a learning target; a huge value makes the critics diverge)",
                 defender::MAX_ABS_R_TASK
             );
         }
