@@ -9,12 +9,14 @@ use serde::{Deserialize, Serialize};
 
 use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 
+use crate::adaptive_filter::AdaptiveFilter;
 use crate::demonstrations::{CostOptions, Demonstrations};
 use crate::dynamics::{DynamicsConfig, DynamicsModel};
 use crate::dynamics_worker::{DynamicsHandle, TrainedDynamics};
 use crate::episode_set::EpisodeSet;
 use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
+use crate::filter_options::FilterOptions;
 use crate::strategy::{Mode, Strategy};
 
 /// The largest `|R_task|` accepted: far beyond any task's per-step reward, small enough that
@@ -42,6 +44,9 @@ pub struct DefenderConfig {
     /// Options of the alignment cost (off by default).
     #[serde(default)]
     pub cost: CostOptions,
+    /// The filter's precision options (`[defender.filter]`; off by default).
+    #[serde(default, skip_serializing_if = "FilterOptions::is_spec")]
+    pub filter: FilterOptions,
     /// The dynamics model.
     #[serde(default)]
     pub dynamics: DynamicsConfig,
@@ -62,6 +67,7 @@ impl Default for DefenderConfig {
             num_demos: None,
             r_task: None,
             cost: CostOptions::default(),
+            filter: FilterOptions::default(),
             dynamics: DynamicsConfig::default(),
         }
     }
@@ -100,7 +106,7 @@ pub struct DefenderStats {
 #[derive(Debug)]
 pub struct DefenderEnv<E> {
     inner: E,
-    filter: Filter,
+    filter: AdaptiveFilter,
     dynamics: TrainedDynamics,
     config: DefenderConfig,
     r_task: f64,
@@ -148,7 +154,7 @@ impl<E: Env> DefenderEnv<E> {
             }
             None => f64::from(prepared.min_reward()),
         };
-        let filter = Filter::new(&prepared, config.strategy)?;
+        let filter = AdaptiveFilter::new(&prepared, config.strategy, config.filter)?;
         let model = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
         let dynamics = TrainedDynamics::new(model, config.dynamics.background)?;
         Ok(Self {
@@ -197,8 +203,13 @@ impl<E: Env> DefenderEnv<E> {
         self.episode_steps
     }
 
-    /// The filter.
+    /// The filter as it stands (with own episodes on, its groups grow between episodes).
     pub fn filter(&self) -> &Filter {
+        self.filter.filter()
+    }
+
+    /// The filter with its precision options (margin in use, own episodes kept).
+    pub fn adaptive_filter(&self) -> &AdaptiveFilter {
         &self.filter
     }
 
@@ -255,7 +266,7 @@ impl<E: Env> DefenderEnv<E> {
         self.inner
     }
 
-    fn end_episode(&mut self, outcome: Outcome) {
+    fn end_episode(&mut self, outcome: Outcome) -> Result<()> {
         self.needs_reset = true;
         self.last_outcome = Some(outcome);
         self.stats.episodes += 1;
@@ -264,6 +275,7 @@ impl<E: Env> DefenderEnv<E> {
             Outcome::Crashed => self.stats.crashed_episodes += 1,
             Outcome::Truncated => self.stats.truncated_episodes += 1,
         }
+        self.filter.end(outcome)
     }
 }
 
@@ -295,7 +307,7 @@ impl<E: Env> Env for DefenderEnv<E> {
         let obs = self.inner.reset(seed)?;
         self.inner.observation_space().check("observation from reset", &obs)?;
         self.obs.copy_from_slice(&obs);
-        self.filter.reset();
+        self.filter.begin(&obs);
         self.needs_reset = false;
         self.episode_steps = 0;
         self.last_decision = None;
@@ -319,7 +331,7 @@ impl<E: Env> Env for DefenderEnv<E> {
                 .and_then(|mut model| model.predict_into(&self.obs, action, &mut self.pred))
                 .map_err(env_error)?;
             self.stats.filtered_steps += 1;
-            self.end_episode(Outcome::Filtered);
+            self.end_episode(Outcome::Filtered).map_err(env_error)?;
             return Ok(Step {
                 obs: self.pred.clone(),
                 reward: self.r_task,
@@ -334,20 +346,22 @@ impl<E: Env> Env for DefenderEnv<E> {
         // is not a transition of the task.
         if !step.info.unstable && step.obs.iter().all(|v| v.is_finite()) && step.obs.len() == self.obs.len() {
             self.dynamics.observe(&self.obs, action, &step.obs).map_err(env_error)?;
+            self.filter.executed(action, step.reward, &step.obs).map_err(env_error)?;
             self.obs.copy_from_slice(&step.obs);
         }
         if step.terminated {
-            self.end_episode(Outcome::Crashed);
+            self.end_episode(Outcome::Crashed).map_err(env_error)?;
         } else if step.truncated {
-            self.end_episode(Outcome::Truncated);
+            self.end_episode(Outcome::Truncated).map_err(env_error)?;
         }
         Ok(step)
     }
 
     /// The dynamics model (weights, optimiser, its transition buffer, RNG) goes into
-    /// `dir/dynamics/`, the counters into `dir/defender_stats.json`, and the inner environment's
-    /// own state (if any) into `dir/inner/`. The filter needs nothing: it restarts every episode
-    /// and checkpoints are taken at episode boundaries.
+    /// `dir/dynamics/`, the counters into `dir/defender_stats.json`, the filter's margin and own
+    /// episodes (crate::adaptive_filter) beside them, and the inner environment's own state (if
+    /// any) into `dir/inner/`. The trajectory needs nothing: it restarts every episode and
+    /// checkpoints are taken at episode boundaries.
     fn save_state(&self, dir: &Path) -> defender_rl::Result<()> {
         let state_err = |path: PathBuf, reason: String| EnvError::State { path, reason };
         self.dynamics
@@ -358,6 +372,7 @@ impl<E: Env> Env for DefenderEnv<E> {
         let text = serde_json::to_vec_pretty(&self.stats)
             .map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
         std::fs::write(&stats_path, text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        self.filter.save(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
         let inner = dir.join("inner");
         std::fs::create_dir_all(&inner).map_err(|e| state_err(inner.clone(), e.to_string()))?;
         self.inner.save_state(&inner)
@@ -373,6 +388,7 @@ impl<E: Env> Env for DefenderEnv<E> {
         let text = std::fs::read(&stats_path).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
         self.stats =
             serde_json::from_slice(&text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
+        self.filter.load(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
         self.needs_reset = true;
         self.inner.load_state(&dir.join("inner"))
     }

@@ -10,7 +10,7 @@ pub use crate::cost::{CostOptions, Scaling};
 use crate::cost_stream::{CostStream, Recompute};
 use crate::window::Window;
 
-use crate::episode_set::EpisodeSet;
+use crate::episode_set::{Episode, EpisodeSet};
 use crate::error::{DefenderError, Result};
 use crate::strategy::Mode;
 
@@ -82,14 +82,7 @@ impl Demonstrations {
         set.require_both_groups()?;
         options.validate()?;
         let dim = mode.element_dim(set.obs_dim(), set.act_dim());
-        let sequence = |e: crate::episode_set::Episode<'_>| {
-            let mut s = e.sequence(mode);
-            // One element per transition: state mode drops the final observation (SPEC 1 keeps it).
-            if options.elements == Elements::PerTransition && mode == Mode::State {
-                s.truncate(e.len() * dim);
-            }
-            s
-        };
+        let sequence = |e| sequence(e, mode, options);
         let mut safe: Vec<Vec<f32>> = set.safe().map(sequence).collect();
         let mut unsafe_: Vec<Vec<f32>> = set.unsafe_().map(sequence).collect();
         let scaler = match options.scaling {
@@ -104,10 +97,6 @@ impl Demonstrations {
                 s.chunks_exact_mut(dim).for_each(|row| sc.apply(row));
             }
         }
-        let refs = |seqs: &[Vec<f32>]| {
-            let slices: Vec<&[f32]> = seqs.iter().map(Vec::as_slice).collect();
-            References::new(dim, &slices)
-        };
         let min_reward = set.min_reward().ok_or_else(|| DefenderError::MissingGroup {
             path: set.source().to_owned(),
             group: "safe",
@@ -119,8 +108,8 @@ impl Demonstrations {
             act_dim: set.act_dim(),
             options,
             scaler,
-            safe: refs(&safe)?,
-            unsafe_: refs(&unsafe_)?,
+            safe: references(dim, &safe)?,
+            unsafe_: references(dim, &unsafe_)?,
             safe_seqs: Arc::new(safe),
             unsafe_seqs: Arc::new(unsafe_),
             min_reward,
@@ -182,6 +171,48 @@ impl Demonstrations {
         self.min_reward
     }
 
+    /// These demonstrations with `safe` and `unsafe_` episodes appended to their groups, prepared
+    /// as the set's own: same mode, cost options and scaling (the scaler stays the one fitted on
+    /// the set, so costs keep their scale as groups grow); `R_task` stays the set's.
+    ///
+    /// # Errors
+    /// An episode of other dimensions ([`DefenderError::Mismatch`]) or a DTW error.
+    pub fn joined<'a>(
+        &self,
+        safe: impl IntoIterator<Item = Episode<'a>>,
+        unsafe_: impl IntoIterator<Item = Episode<'a>>,
+    ) -> Result<Self> {
+        let dim = self.element_dim();
+        let prepare = |seqs: &Arc<Vec<Vec<f32>>>, extra: &mut dyn Iterator<Item = Episode<'a>>| {
+            let mut all = Vec::clone(seqs);
+            for e in extra {
+                if (e.obs_dim, e.act_dim) != (self.obs_dim, self.act_dim) {
+                    return Err(DefenderError::Mismatch {
+                        what: "episode joining the demonstrations (obs, act dimensions)".into(),
+                        expected: format!("({}, {})", self.obs_dim, self.act_dim),
+                        got: format!("({}, {})", e.obs_dim, e.act_dim),
+                    });
+                }
+                let mut s = sequence(e, self.mode, self.options);
+                if let Some(sc) = &self.scaler {
+                    s.chunks_exact_mut(dim).for_each(|row| sc.apply(row));
+                }
+                all.push(s);
+            }
+            Ok(all)
+        };
+        let safe = prepare(&self.safe_seqs, &mut safe.into_iter())?;
+        let unsafe_ = prepare(&self.unsafe_seqs, &mut unsafe_.into_iter())?;
+        Ok(Self {
+            safe: references(dim, &safe)?,
+            unsafe_: references(dim, &unsafe_)?,
+            safe_seqs: Arc::new(safe),
+            unsafe_seqs: Arc::new(unsafe_),
+            scaler: self.scaler.clone(),
+            ..*self
+        })
+    }
+
     /// Writes the trajectory element of (`obs`, `act`) for this mode into `out` (cleared first),
     /// scaled like the demonstrations. Lengths are the caller's to check.
     pub(crate) fn element_into(&self, obs: impl IntoIterator<Item = f32>, act: &[f32], out: &mut Vec<f32>) {
@@ -194,6 +225,21 @@ impl Demonstrations {
             sc.apply(out);
         }
     }
+}
+
+/// An episode's sequence under `mode` and `options.elements` (SPEC section 1, or one element per
+/// transition, which drops the final observation in state mode).
+fn sequence(e: Episode<'_>, mode: Mode, options: CostOptions) -> Vec<f32> {
+    let mut s = e.sequence(mode);
+    if options.elements == Elements::PerTransition && mode == Mode::State {
+        s.truncate(e.len() * mode.element_dim(e.obs_dim, e.act_dim));
+    }
+    s
+}
+
+fn references(dim: usize, seqs: &[Vec<f32>]) -> Result<References> {
+    let slices: Vec<&[f32]> = seqs.iter().map(Vec::as_slice).collect();
+    Ok(References::new(dim, &slices)?)
 }
 
 #[cfg(test)]

@@ -29,9 +29,17 @@ impl Decision {
     /// The decision under a tie rule: with [`Ties::Execute`] (the authors' code) an equal cost
     /// executes and only `safe > unsafe` filters; unordered (NaN) costs filter under both rules.
     pub fn with_ties(safe_cost: f64, unsafe_cost: f64, ties: Ties) -> Self {
+        Self::with_margin(safe_cost, unsafe_cost, ties, 0.0)
+    }
+
+    /// The decision with a margin `m` (`[defender.filter] margin`): executed iff
+    /// `(1 - m) * Safe < Unsafe` (`<=` with [`Ties::Execute`]), so the trajectory must be clearly
+    /// closer to the unsafe group to be filtered; `m = 0` is the rule above.
+    pub fn with_margin(safe_cost: f64, unsafe_cost: f64, ties: Ties, margin: f64) -> Self {
         use std::cmp::Ordering::{Equal, Less};
+        let threshold = if margin == 0.0 { safe_cost } else { (1.0 - margin) * safe_cost };
         let filtered = !matches!(
-            (safe_cost.partial_cmp(&unsafe_cost), ties),
+            (threshold.partial_cmp(&unsafe_cost), ties),
             (Some(Less), _) | (Some(Equal), Ties::Execute)
         );
         Self { filtered, safe_cost, unsafe_cost }
@@ -53,6 +61,7 @@ pub struct Filter {
     unsafe_: CostStream,
     element: Vec<f32>,
     act: Vec<f32>,
+    margin: f64,
 }
 
 impl Filter {
@@ -70,12 +79,23 @@ impl Filter {
             unsafe_,
             element: Vec::with_capacity(demos.element_dim()),
             act: Vec::with_capacity(demos.act_dim()),
+            margin: 0.0,
         })
     }
 
     /// The strategy.
     pub fn strategy(&self) -> Strategy {
         self.strategy
+    }
+
+    /// The decision margin in use (0: SPEC's rule; see [`Decision::with_margin`]).
+    pub fn margin(&self) -> f64 {
+        self.margin
+    }
+
+    /// Sets the decision margin (validated by the caller: `[0, 1)`).
+    pub fn set_margin(&mut self, margin: f64) {
+        self.margin = margin;
     }
 
     /// The trajectory mode.
@@ -157,7 +177,7 @@ impl Filter {
         self.unsafe_.push(&self.element)?;
         let safe = self.strategy.safe.aggregation.apply(self.safe.costs(0));
         let unsafe_ = self.strategy.unsafe_.aggregation.apply(self.unsafe_.costs(0));
-        Ok(Decision::with_ties(safe, unsafe_, self.demos.options().ties))
+        Ok(Decision::with_margin(safe, unsafe_, self.demos.options().ties, self.margin))
     }
 }
 
@@ -184,6 +204,12 @@ mod tests {
         assert!(!Decision::with_ties(1.0, 1.0, Ties::Execute).filtered);
         assert!(Decision::with_ties(1.5, 1.0, Ties::Execute).filtered);
         assert!(Decision::with_ties(f64::NAN, 1.0, Ties::Execute).filtered);
+        // A margin: filtered iff unsafe <= (1 - m) * safe.
+        assert!(!Decision::with_margin(1.0, 0.9, Ties::Filter, 0.2).filtered);
+        assert!(Decision::with_margin(1.0, 0.8, Ties::Filter, 0.2).filtered);
+        assert!(!Decision::with_margin(1.0, 0.8, Ties::Execute, 0.2).filtered);
+        assert!(Decision::with_margin(1.0, 0.7, Ties::Execute, 0.2).filtered);
+        assert!(Decision::with_margin(1.0, f64::NAN, Ties::Execute, 0.2).filtered);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 mod ablation;
+mod adaptive_filter;
 mod atomic;
 pub mod collection;
 mod cost;
@@ -12,6 +13,7 @@ mod dynamics_worker;
 mod episode_set;
 mod error;
 mod filter;
+mod filter_options;
 mod method;
 pub mod npz;
 mod recorder;
@@ -22,6 +24,7 @@ pub mod synthetic;
 mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
+pub use adaptive_filter::AdaptiveFilter;
 pub use atomic::write_atomic;
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
 pub use cost_stream::CostStream;
@@ -32,6 +35,7 @@ pub use dynamics_worker::DynamicsHandle;
 pub use episode_set::{Episode, EpisodeSet, Meta};
 pub use error::{DefenderError, Result};
 pub use filter::{Decision, Filter};
+pub use filter_options::{Budget, FilterOptions, MAX_ADAPTIVE_MARGIN, OwnEpisodes};
 pub use method::{Aggregation, Method};
 pub use recorder::EpisodeRecorder;
 pub use score::{AblationRow, CSV_HEADER, StrategyTally, rank, rank_tasks, read_csv, write_csv};
