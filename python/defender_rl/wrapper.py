@@ -105,6 +105,34 @@ def _dynamics_value(key: Any, value: Any) -> Any:
     return value  # an unknown key: the Rust side names it and lists the known ones
 
 
+def _filter_values(filter: Mapping[str, Any]) -> dict:  # noqa: A002
+    """``filter`` checked for types before it is sent on (the Rust side checks ranges)."""
+
+    def number(where: str, value: Any) -> float:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise TypeError(f"{where} must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise DefenderError(f"{where} must be a finite number, got {value!r}")
+        return float(value)
+
+    out: dict[str, Any] = {}
+    for key, value in filter.items():
+        where = f"filter[{key!r}]"
+        if key == "margin":
+            out[key] = number(where, value)
+        elif key in ("budget", "own_episodes"):
+            if not isinstance(value, Mapping):
+                raise TypeError(f"{where} must be a dict, got {value!r}")
+            inner: dict[str, Any] = {}
+            for k, v in value.items():
+                w = f"{where}[{k!r}]"
+                inner[k] = number(w, v) if k == "share" else _whole(w, v, 0, 2**63 - 1)
+            out[key] = inner
+        else:
+            out[key] = value  # an unknown key: the Rust side names it and lists the known ones
+    return out
+
+
 class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Wraps a Gymnasium environment with DEFENDER.
 
@@ -160,6 +188,14 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             shipped Hopper-v5, Walker2d-v5 and InvertedDoublePendulum-v5 sets, where it
             separates safe from unsafe demonstrations far better: docs/decisions.md).
 
+        filter: the filter's precision options, as ``[defender.filter]`` of a run's configuration
+            (all off by default, SPEC's filter): ``{"margin": m}`` filters only when
+            ``Unsafe <= (1 - m) * Safe``; ``{"budget": {"share": s, "episodes": n}}`` adapts the
+            margin after every episode towards a share ``s`` of filtered episodes (time constant
+            ``n`` episodes, default 100); ``{"own_episodes": {"keep": k}}`` lets the agent's own
+            episodes join the demonstrations (its crashes the unsafe group, episodes that reach
+            the horizon the safe one; at most ``k`` per group, the oldest replaced). The margin
+            and own-episode counts in use are in :attr:`filter_state`.
         check_finite: a NaN or infinity in a reward or observation of the wrapped environment, or
             in an action given to :meth:`step`, raises :class:`DefenderError` naming the step, the
             field and the element (as Stable-Baselines3's ``VecCheckNan`` does, but on by
@@ -191,12 +227,13 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         seed: int | None = None,
         scaling: str | None = None,
         check_finite: bool = True,
+        filter: Mapping[str, Any] | None = None,  # noqa: A002 (the [defender.filter] section's name)
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
-            dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite,
+            dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite, filter=filter,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
         _warn_statistics_inside(env)
@@ -228,6 +265,11 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             if not isinstance(dynamics, Mapping):
                 raise TypeError(f"dynamics must be a dict of DynamicsConfig fields, got {type(dynamics).__name__}")
             dynamics_json = json.dumps({k: _dynamics_value(k, v) for k, v in dynamics.items()})
+        filter_json = None
+        if filter is not None:
+            if not isinstance(filter, Mapping):
+                raise TypeError(f"filter must be a dict of [defender.filter] settings, got {type(filter).__name__}")
+            filter_json = json.dumps(_filter_values(filter))
         if isinstance(demos, (str, os.PathLike)):
             demos = os.fspath(demos)
         env_id = env.spec.id if env.spec is not None else None
@@ -248,6 +290,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             seed,
             scaling,
             bool(check_finite),
+            filter_json,
         )
         self._check_horizon(demos, env, num_demos)
         # DynamicsConfig's default learning_starts is 1 (crates/defender/src/dynamics.rs).
@@ -297,6 +340,12 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         """Counters since construction: ``steps``, ``filtered_steps``, ``real_steps``,
         ``episodes``, ``filtered_episodes``, ``crashed_episodes``, ``truncated_episodes``."""
         return self._core.stats()
+
+    @property
+    def filter_state(self) -> dict[str, float]:
+        """The filter's precision options as they stand (``filter=``; they move between
+        episodes): ``margin`` in use, ``own_safe`` and ``own_unsafe`` (own episodes kept)."""
+        return self._core.filter_state()
 
     @property
     def last_decision(self) -> tuple[bool, float, float] | None:

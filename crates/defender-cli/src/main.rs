@@ -41,6 +41,8 @@ enum Command {
     Train(Box<commands::train::TrainArgs>),
     /// Rank filtering strategies offline by replaying recorded episodes (SPEC section 7).
     Ablate(commands::ablate::AblateArgs),
+    /// Screen the filter's precision variants offline on a bare run's recorded episodes.
+    Screen(commands::screen::ScreenArgs),
     /// Choose the strategy for a task from its demonstrations (leave-one-out), before training.
     Select(commands::select::SelectArgs),
     /// Run an experiment file's grid of runs on this machine, N at a time (resumable).
@@ -76,6 +78,7 @@ fn main() -> std::process::ExitCode {
         Command::Train(args) => commands::train::run(*args),
         Command::Demos(cmd) => commands::demos::run(cmd),
         Command::Ablate(args) => commands::ablate::run(args),
+        Command::Screen(args) => commands::screen::run(args),
         Command::Select(args) => commands::select::run(args),
     };
     match result {

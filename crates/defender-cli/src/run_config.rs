@@ -258,6 +258,10 @@ pub struct DefenderSection {
     /// Options of the alignment cost (SPEC section 2).
     #[serde(default)]
     pub cost: CostSection,
+    /// The filter's precision options (`[defender.filter]`: margin, budget, own episodes); absent
+    /// or empty: SPEC section 4's filter.
+    #[serde(default, skip_serializing_if = "defender::FilterOptions::is_spec")]
+    pub filter: defender::FilterOptions,
     /// The dynamics model (SPEC section 5).
     #[serde(default)]
     pub dynamics: defender::DynamicsConfig,
@@ -356,6 +360,7 @@ impl DefenderSection {
             demos: None,
             demos_sha256: None,
             cost: Default::default(),
+            filter: Default::default(),
             dynamics: Default::default(),
             selection: None,
         }
@@ -380,6 +385,7 @@ impl DefenderSection {
             );
         }
         self.cost.validate().context("[defender.cost]")?;
+        self.filter.validate()?;
         self.dynamics.validate()?;
         Ok(())
     }
@@ -392,6 +398,7 @@ impl DefenderSection {
             num_demos: self.num_demos,
             r_task: self.r_task,
             cost: self.cost.options(),
+            filter: self.filter,
             dynamics: self.dynamics.clone(),
         })
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
 
 use defender::selection::StrategyChoice;
-use defender::{CostOptions, DefenderConfig, DefenderEnv, DynamicsConfig};
+use defender::{CostOptions, DefenderConfig, DefenderEnv, DynamicsConfig, FilterOptions};
 use defender_rl::{BoxSpace, Env, EnvError, Outcome, Step, StepInfo};
 use numpy::PyArray1;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -272,9 +272,9 @@ fn take_error(state: &mut State, e: EnvError) -> PyErr {
 #[pymethods]
 impl Core {
     /// `env`: the Python environment; `obs_low`/`obs_high`/`act_low`/`act_high`: its Box bounds;
-    /// `dynamics`: a JSON object of `DynamicsConfig` fields.
+    /// `dynamics`: a JSON object of `DynamicsConfig` fields; `filter`: one of `FilterOptions`.
     #[new]
-    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true))]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true, filter_json = None))]
     #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
     fn new(
         py: Python<'_>,
@@ -294,6 +294,7 @@ impl Core {
         seed: Option<u64>,
         scaling: Option<&str>,
         check_finite: bool,
+        filter_json: Option<String>,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -307,6 +308,13 @@ impl Core {
                     .map_err(|e| DefenderError::new_err(format!("dynamics: {e}")))?,
                 None => DynamicsConfig::default(),
             };
+            let filter: FilterOptions = match filter_json {
+                Some(text) => {
+                    serde_json::from_str(&text).map_err(|e| DefenderError::new_err(format!("filter: {e}")))?
+                }
+                None => FilterOptions::default(),
+            };
+            filter.validate().map_err(|e| DefenderError::new_err(format!("filter: {e}")))?;
             if let Some(r) = r_task.filter(|r| !r.is_finite()) {
                 return Err(DefenderError::new_err(format!("r_task must be a finite number, got {r}")));
             }
@@ -342,7 +350,7 @@ impl Core {
                     )
                 }
             };
-            let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, dynamics };
+            let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, filter, dynamics };
             let mut rng = match seed {
                 Some(s) => ChaCha8Rng::seed_from_u64(s),
                 None => ChaCha8Rng::from_rng(&mut rand::rng()),
@@ -498,6 +506,19 @@ impl Core {
         ] {
             d.set_item(k, v)?;
         }
+        Ok(d)
+    }
+
+    /// The filter's precision options as they stand (they move between episodes): `margin`,
+    /// `own_safe`, `own_unsafe`.
+    fn filter_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let state = self.lock(py, "filter_state")?;
+        let filter = state.env.adaptive_filter();
+        let (own_safe, own_unsafe) = filter.own_counts();
+        let d = PyDict::new(py);
+        d.set_item("margin", filter.margin())?;
+        d.set_item("own_safe", own_safe)?;
+        d.set_item("own_unsafe", own_unsafe)?;
         Ok(d)
     }
 

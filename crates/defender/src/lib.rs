@@ -18,6 +18,7 @@ mod method;
 pub mod npz;
 mod recorder;
 mod score;
+mod screen;
 pub mod selection;
 mod strategy;
 pub mod synthetic;
@@ -39,5 +40,6 @@ pub use filter_options::{Budget, FilterOptions, MAX_ADAPTIVE_MARGIN, OwnEpisodes
 pub use method::{Aggregation, Method};
 pub use recorder::EpisodeRecorder;
 pub use score::{AblationRow, CSV_HEADER, StrategyTally, rank, rank_tasks, read_csv, write_csv};
+pub use screen::{ScreenTally, screen};
 pub use strategy::{Mode, Strategy};
 pub use window::{Span, Window};

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod demos;
 pub mod env;
 pub mod report;
+pub mod screen;
 pub mod select;
 pub mod sweep;
 pub mod train;

@@ -60,6 +60,19 @@ pub struct TrainArgs {
     /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
     #[arg(long, allow_negative_numbers = true)]
     pub r_task: Option<f64>,
+    /// Filter only when the trajectory is clearly closer to the unsafe group: `Unsafe <= (1 - M) *
+    /// Safe`, M in [0, 1) ([defender.filter] margin; 0 is SPEC's rule).
+    #[arg(long, value_name = "M")]
+    pub margin: Option<f64>,
+    /// Adapt the margin after every episode so that this share of episodes is filtered
+    /// ([defender.filter.budget] share, time constant 100 episodes).
+    #[arg(long, value_name = "SHARE")]
+    pub filter_budget: Option<f64>,
+    /// The agent's own episodes join the demonstrations (its crashes the unsafe group, episodes
+    /// that reach the horizon the safe one), at most K per group, the oldest replaced
+    /// ([defender.filter.own_episodes] keep).
+    #[arg(long, value_name = "K")]
+    pub own_episodes: Option<usize>,
     /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
     /// updates: same results bit for bit, less wall time when a core is free
     /// ([defender.dynamics] background = true). The default already when the networks use two
@@ -220,12 +233,16 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         || args.num_demos.is_some()
         || args.mode.is_some()
         || args.r_task.is_some()
+        || args.margin.is_some()
+        || args.filter_budget.is_some()
+        || args.own_episodes.is_some()
         || args.dynamics_thread
         || args.dynamics_spec_schedule;
     if wants_defender && config.defender.is_none() {
         let strategy = args.strategy.context(
-            "--demos, --num-demos, --mode, --r-task, --dynamics-thread and --dynamics-spec-schedule \
-             configure DEFENDER: give --strategy SAFE/UNSAFE too",
+            "--demos, --num-demos, --mode, --r-task, --margin, --filter-budget, --own-episodes, \
+             --dynamics-thread and --dynamics-spec-schedule configure DEFENDER: give --strategy \
+             SAFE/UNSAFE too",
         )?;
         config.defender = Some(DefenderSection::new(strategy));
     }
@@ -263,6 +280,16 @@ fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
     }
     if args.demos.is_some() {
         section.demos.clone_from(&args.demos);
+    }
+    if let Some(m) = args.margin {
+        section.filter.margin = m;
+    }
+    if let Some(share) = args.filter_budget {
+        let episodes = section.filter.budget.map_or(100, |b| b.episodes);
+        section.filter.budget = Some(defender::Budget { share, episodes });
+    }
+    if let Some(keep) = args.own_episodes {
+        section.filter.own_episodes = Some(defender::OwnEpisodes { keep });
     }
     if args.dynamics_thread {
         section.dynamics.background = true;
