@@ -167,6 +167,53 @@ fn train_ablate_report() {
     let scores_sorted: Vec<f64> = rows.iter().map(|r| r[7].parse().unwrap()).collect();
     assert!(scores_sorted.windows(2).all(|w| w[0] >= w[1]), "ranked by score");
 
+    // The screen replays the same episodes in order: SPEC's filter ("spec") leaves exactly the
+    // crashes the ablation counts as unsafe; a margin near 1 catches nothing.
+    let screened = root.join("screen.csv");
+    let out = ok(&[
+        "screen",
+        "--demos",
+        demos,
+        "--episodes",
+        recorded.to_str().unwrap(),
+        "--num-demos",
+        "5",
+        "--strategy",
+        "MeanDemoW5/MeanDemoW10",
+        "--variant",
+        "",
+        "--variant",
+        "margin = 0.999",
+        "--variant",
+        "budget = { share = 0.5, episodes = 10 }\nown_episodes = { keep = 3 }",
+        "--out",
+        screened.to_str().unwrap(),
+    ]);
+    assert!(out.contains("3 lines"), "{out}");
+    let csv = std::fs::read_to_string(&screened).unwrap();
+    let lines: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(lines.iter().map(|l| l[2]).collect::<Vec<_>>(), ["spec", "margin0.999", "budget0.5+own3"]);
+    let ablated = rows.iter().find(|r| r[1] == "MeanDemoW5/MeanDemoW10").unwrap();
+    let safe_rate: f64 = ablated[6].parse().unwrap();
+    let crash_pct: f64 = lines[0][8].parse().unwrap();
+    assert!((crash_pct - 100.0 * (1.0 - safe_rate)).abs() < 0.01, "{crash_pct} vs safe_rate {safe_rate}");
+    assert!(lines[1][5].parse::<f64>().unwrap() <= lines[0][5].parse::<f64>().unwrap());
+    let bad = defender(&[
+        "screen",
+        "--demos",
+        demos,
+        "--episodes",
+        recorded.to_str().unwrap(),
+        "--strategy",
+        "MeanDemoW5/MeanDemoW10",
+        "--variant",
+        "margin = 1.5",
+        "--out",
+        screened.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("margin = 1.5"), "{err}");
+
     // The report reads both runs: one bare row and one DEFENDER row, with % Time against the bare run.
     let table = ok(&["report", root.join("runs").to_str().unwrap(), "--format", "csv"]);
     assert_eq!(table.lines().count(), 3, "{table}");
