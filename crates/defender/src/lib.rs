@@ -7,6 +7,7 @@ mod cost;
 mod cost_stream;
 mod defender_env;
 mod demonstrations;
+pub mod diversity;
 mod dynamics;
 mod dynamics_worker;
 mod episode_set;
@@ -16,12 +17,13 @@ mod method;
 pub mod npz;
 mod recorder;
 mod score;
+mod scoring;
 pub mod selection;
 mod strategy;
 pub mod synthetic;
 mod window;
 
-pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
+pub use ablation::{Ablation, EpisodeReplay, Progress, ablate, ablate_scored};
 pub use atomic::write_atomic;
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
 pub use cost_stream::CostStream;
@@ -34,6 +36,10 @@ pub use error::{DefenderError, Result};
 pub use filter::{Decision, Filter};
 pub use method::{Aggregation, Method};
 pub use recorder::EpisodeRecorder;
-pub use score::{AblationRow, CSV_HEADER, StrategyTally, rank, rank_tasks, read_csv, write_csv};
+pub use score::{
+    AblationRow, CSV_HEADER, StrategyTally, csv_scoring, rank, rank_tasks, read_csv, write_csv,
+    write_csv_scored,
+};
+pub use scoring::{AuthorsTally, Scoring};
 pub use strategy::{Mode, Strategy};
 pub use window::{Span, Window};

@@ -309,6 +309,30 @@ impl EpisodeSet {
         Ok(out)
     }
 
+    /// The episodes at `order` (positions in this set, each at most once), in that order, with
+    /// the same source and meta.
+    ///
+    /// # Errors
+    /// A position out of range or given twice.
+    pub fn reordered(&self, order: &[usize]) -> Result<EpisodeSet> {
+        let mut seen = vec![false; self.len()];
+        let mut out = EpisodeSet::new(self.obs_dim, self.act_dim, self.meta.clone())?;
+        out.source = self.source.clone();
+        for &i in order {
+            if seen.get(i).copied() != Some(false) {
+                return Err(DefenderError::Config(format!(
+                    "episode {i} of {}: out of range ({} episodes) or chosen twice",
+                    self.source.display(),
+                    self.len()
+                )));
+            }
+            seen[i] = true;
+            let e = self.episode(i);
+            out.push_episode(e.obs, e.act, e.rew, e.crashed)?;
+        }
+        Ok(out)
+    }
+
     /// The lowest per-step reward over all episodes (both groups): the default `R_task`
     /// (SPEC section 5). `None` for an empty set.
     pub fn min_reward(&self) -> Option<f32> {
@@ -361,6 +385,9 @@ mod tests {
         let err = set.select_demos(2).unwrap_err().to_string();
         assert!(err.contains("unsafe group has only 1"), "{err}");
         assert!(set.select_demos(0).is_err());
+        let back = set.reordered(&[2, 0]).unwrap();
+        assert_eq!((back.len(), back.episode(0).obs), (2, set.episode(2).obs));
+        assert!(set.reordered(&[0, 0]).is_err() && set.reordered(&[3]).is_err());
     }
 
     #[test]
