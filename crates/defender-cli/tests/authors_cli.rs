@@ -185,3 +185,86 @@ fn ablate_profile_authors_scores_the_first_500_episodes() {
     }
     assert_ne!(std::fs::read_to_string(&c).unwrap(), std::fs::read_to_string(&d).unwrap());
 }
+
+#[test]
+fn demos_collect_profile_authors_keeps_every_demonstration_in_diversity_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("idp.npz");
+    // A 6-step horizon, so that the untrained policy sometimes lasts it: 100 episodes, a
+    // demonstration after every 5th.
+    let args = [
+        "demos",
+        "collect",
+        "--profile",
+        "authors",
+        "--env",
+        "InvertedDoublePendulum-v5",
+        "--max-episode-steps",
+        "6",
+        "--episodes",
+        "100",
+        "--demonstrate-every",
+        "5",
+        "--seed",
+        "1",
+        "--out",
+        s(&out),
+    ];
+    let printed = ok(&args);
+    assert!(printed.contains("over 100 training episodes"), "{printed}");
+    let set = EpisodeSet::load(&out).unwrap();
+    assert_eq!(set.len(), 20);
+    let (safe, unsafe_) = set.group_sizes();
+    assert!(safe >= 1 && unsafe_ >= 1, "({safe}, {unsafe_})");
+    // Safe = lasted the horizon; the safe group first.
+    for e in set.episodes() {
+        assert_eq!(e.crashed, e.len() < 6, "episode {} of {} steps", e.index, e.len());
+        assert_eq!(e.crashed, e.index >= safe);
+    }
+    let meta = &set.meta().extra;
+    assert_eq!(meta["collection"], "authors");
+    let mut sources: Vec<u64> =
+        meta["source_training_episodes"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+    sources.sort_unstable();
+    assert_eq!(sources, (1..=20).map(|k| 5 * k).collect::<Vec<u64>>());
+    assert_eq!(meta["r_task"].as_f64().unwrap(), f64::from(set.min_reward().unwrap()));
+    // Each group is already in the diversity order: choosing again keeps it.
+    let (s_order, u_order) = defender::diversity::diverse_order(&set, 20, defender::Mode::State).unwrap();
+    assert_eq!((s_order, u_order), ((0..safe).collect(), (0..unsafe_).collect()));
+    // One seed, one file.
+    let again = dir.path().join("again.npz");
+    let mut repeat = args.to_vec();
+    let at = repeat.len() - 1;
+    repeat[at] = s(&again);
+    ok(&repeat);
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+
+    // The file trains a profile run, the first N of each group filtering.
+    let run = dir.path().join("run");
+    ok(&[
+        "train",
+        "--env",
+        "InvertedDoublePendulum-v5",
+        "--profile",
+        "authors",
+        "--strategy",
+        "MeanBothW5/MeanBothW5",
+        "--demos",
+        s(&out),
+        "--num-demos",
+        "1",
+        "--steps",
+        "300",
+        "--out",
+        s(&run),
+    ]);
+
+    // Flags of the other rule are refused, by name.
+    let mut with_safe = args.to_vec();
+    with_safe.extend(["--safe", "3"]);
+    refused(&with_safe, &["--safe is not for --profile authors"]);
+    refused(
+        &["demos", "collect", "--env", "InvertedDoublePendulum-v5", "--episodes", "10", "--out", s(&again)],
+        &["--episodes is for --profile authors"],
+    );
+}

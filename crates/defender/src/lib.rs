@@ -2,6 +2,7 @@
 
 mod ablation;
 mod atomic;
+pub mod authors_collection;
 pub mod collection;
 mod cost;
 mod cost_stream;
