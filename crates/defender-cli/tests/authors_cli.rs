@@ -268,3 +268,84 @@ fn demos_collect_profile_authors_keeps_every_demonstration_in_diversity_order() 
         &["--episodes is for --profile authors"],
     );
 }
+
+/// The final actor's tensor bytes (after safetensors' JSON header, whose key order is not fixed).
+fn tensors(dir: &Path) -> Vec<u8> {
+    let bytes = std::fs::read(dir.join("actor.safetensors")).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    bytes[8 + n..].to_vec()
+}
+
+/// `metrics.csv` without the wall-clock column.
+fn metrics(dir: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect()
+}
+
+#[test]
+fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
+    // The authors' bare SAC with the demonstrations in its buffer and their BC term (the
+    // `authors-demos` arm): `defender train` stores them before every session, and a resumed
+    // run must take the checkpoint's buffer instead, flags included.
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("run.toml");
+    std::fs::write(
+        &config,
+        "env = \"InvertedDoublePendulum-v5\"\nalgo = \"sac\"\nprofile = \"authors\"\n\
+         [sac]\ndemos_in_replay = true\nbc_weight = 1.0\nbc_form = \"authors\"\nbatch_size = 64\n",
+    )
+    .unwrap();
+    let demos = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/InvertedDoublePendulum-v5.npz");
+    std::fs::write(
+        &config,
+        format!("demos = \"{}\"\n{}", demos.display(), std::fs::read_to_string(&config).unwrap()),
+    )
+    .unwrap();
+    let args = |out: &Path| -> Vec<String> {
+        [
+            "train",
+            "--config",
+            s(&config),
+            "--steps",
+            "1500",
+            "--eval-freq",
+            "500",
+            "--seed",
+            "2",
+            "--out",
+            s(out),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let alone = dir.path().join("alone");
+    ok(&args(&alone).iter().map(String::as_str).collect::<Vec<_>>());
+
+    let out = dir.path().join("stopped");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_defender"))
+        .env("DEFENDER_NN_THREADS", "1")
+        .args(args(&out))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Stop it once its first evaluation (step 500) is written.
+    let start = std::time::Instant::now();
+    while !std::fs::read_to_string(out.join("eval.csv")).is_ok_and(|t| t.lines().count() >= 2)
+        && start.elapsed() < std::time::Duration::from_secs(120)
+    {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let kill = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait().unwrap().code(), Some(143), "the run ended before it was stopped");
+    ok(&["train", "--out", s(&out), "--resume"]);
+    assert_eq!(metrics(&alone), metrics(&out), "metrics.csv differs");
+    for file in ["eval.csv", "updates.csv"] {
+        let read = |d: &Path| std::fs::read_to_string(d.join(file)).unwrap();
+        assert_eq!(read(&alone), read(&out), "{file} differs");
+    }
+    assert!(tensors(&alone) == tensors(&out), "the final actors differ");
+    let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(config.contains("demos_in_replay = true") && config.contains("demos_sha256"), "{config}");
+}
