@@ -5,8 +5,8 @@ use std::path::Path;
 
 use defender_rl::classic::Pendulum;
 use defender_rl::{
-    AlgoConfig, Budget, EpisodeRecord, EvalRecord, HookError, Hooks, RunEnd, SacConfig, Td3Config, Trainer,
-    TrainerConfig,
+    AlgoConfig, BcForm, Budget, EntCoef, EpisodeRecord, EvalRecord, HookError, Hooks, RunEnd, SacConfig,
+    Td3Config, Trainer, TrainerConfig, Transition,
 };
 
 /// Small networks and an early start so that updates happen within a few episodes.
@@ -165,4 +165,98 @@ fn resume_refuses_another_configuration() {
         ..SacConfig { net_arch: vec![32, 32], ..SacConfig::default() }
     });
     assert!(trainer(&other, 1).resume(&ckpt, &mut Recorder::default()).is_err());
+}
+
+/// The authors' agents: demonstrations in the replay buffer before training (SAC also with their
+/// behaviour-cloning term, flagged rows from the safe ones), no warm-up, so that learning starts
+/// at once on a buffer that is mostly demonstrations.
+fn configs_with_demonstrations() -> [AlgoConfig; 2] {
+    [
+        AlgoConfig::Sac(SacConfig {
+            net_arch: vec![32, 32],
+            batch_size: 32,
+            buffer_size: 10_000,
+            learning_starts: 0,
+            warmup: false,
+            terminal_on_truncation: true,
+            ent_coef: EntCoef::Fixed(0.5),
+            demos_in_replay: true,
+            bc_weight: 1.0,
+            bc_form: BcForm::Authors,
+            ..SacConfig::default()
+        }),
+        AlgoConfig::Td3(Td3Config {
+            net_arch: vec![32, 32],
+            batch_size: 32,
+            buffer_size: 10_000,
+            learning_starts: 0,
+            warmup: false,
+            demos_in_replay: true,
+            ..Td3Config::default()
+        }),
+    ]
+}
+
+/// A trainer whose agent holds 60 demonstration transitions (two episodes of 30, the first
+/// safe, the second a crash), stored as `defender train` stores them before every session.
+fn trainer_with_demonstrations(algo: &AlgoConfig, seed: u64) -> PendulumTrainer {
+    let mut agent = algo.build(3, 1, seed).expect("agent");
+    for (episode, safe) in [(0, true), (1, false)] {
+        for t in 0..30 {
+            let phase = f64::from(t) * 0.2 + f64::from(episode);
+            let obs = [phase.cos(), phase.sin(), 0.5 - f64::from(episode)];
+            let next = [(phase + 0.2).cos(), (phase + 0.2).sin(), 0.5 - f64::from(episode)];
+            let action = [(phase.sin() * 0.8) as f32];
+            let last = t == 29;
+            let transition = Transition {
+                obs: &obs,
+                action: &action,
+                reward: -phase,
+                next_obs: &next,
+                terminated: last && !safe,
+                truncated: last && safe,
+            };
+            agent.store_demonstration(&transition, safe).expect("store a demonstration");
+        }
+    }
+    Trainer::new(agent, Pendulum::new(), Pendulum::new(), trainer_config(seed)).expect("trainer")
+}
+
+#[test]
+fn demonstrations_in_the_buffer_survive_a_checkpoint_and_resume_exactly() {
+    for algo in configs_with_demonstrations() {
+        let root = tempfile::tempdir().unwrap();
+        let mut whole = Recorder::default();
+        let mut t = trainer_with_demonstrations(&algo, 5);
+        t.run(&mut whole).unwrap();
+        let whole_actor = final_params(&t, root.path());
+
+        let ckpt = root.path().join("checkpoint");
+        let mut first = Recorder { stop_after: Some(2), ..Recorder::default() };
+        let mut t1 = trainer_with_demonstrations(&algo, 5).with_checkpoint_dir(&ckpt);
+        assert_eq!(t1.run(&mut first).unwrap(), RunEnd::Stopped);
+        drop(t1);
+        assert!(ckpt.join("agent/replay.bin").exists());
+
+        // A new process stores the demonstrations again, then the checkpoint's buffer replaces
+        // its own: the resumed run must not hold them twice, nor lose their flags.
+        let mut second = Recorder::default();
+        let mut t2 = trainer_with_demonstrations(&algo, 5).with_checkpoint_dir(&ckpt);
+        t2.resume(&ckpt, &mut second).unwrap();
+        t2.run(&mut second).unwrap();
+        let mut resumed = first.episodes.clone();
+        resumed.extend(second.episodes.iter().cloned());
+        assert_eq!(returns(&whole.episodes), returns(&resumed), "{:?}", algo.algo());
+        assert!(final_params(&t2, root.path()) == whole_actor, "{:?}: final actors differ", algo.algo());
+
+        // A control: the same run without its demonstrations ends elsewhere.
+        let mut bare = Recorder::default();
+        let mut t3 = trainer(&algo, 5);
+        t3.run(&mut bare).unwrap();
+        assert!(
+            final_params(&t3, root.path()) != whole_actor,
+            "{:?}: demonstrations changed nothing",
+            algo.algo()
+        );
+    }
 }

@@ -17,7 +17,8 @@ use crate::episode_set::{Episode, EpisodeSet};
 use crate::error::{DefenderError, Result};
 use crate::filter::Decision;
 use crate::method::{Aggregation, Method};
-use crate::score::{AblationRow, StrategyTally};
+use crate::score::AblationRow;
+use crate::scoring::Scoring;
 use crate::strategy::{Mode, Strategy};
 use crate::window::Window;
 
@@ -183,15 +184,21 @@ impl Ablation {
         episodes: &EpisodeSet,
         progress: &(dyn Fn(Progress) + Sync),
     ) -> Result<Vec<AblationRow>> {
+        self.run_scored(episodes, Scoring::Spec, progress)
+    }
+
+    /// [`Ablation::run`] with the score `scoring` computes (SPEC's, or the authors').
+    ///
+    /// # Errors
+    /// As [`Ablation::run`].
+    pub fn run_scored(
+        &self,
+        episodes: &EpisodeSet,
+        scoring: Scoring,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Vec<AblationRow>> {
         let replays = self.replay_all(episodes, progress)?;
-        let mut tallies = vec![StrategyTally::default(); self.strategies.len()];
-        for r in &replays {
-            for (tally, k) in tallies.iter_mut().zip(&r.first_filtered) {
-                tally.add(r.len, r.crashed, *k);
-            }
-        }
-        let mode = self.mode();
-        Ok(crate::score::rank(self.strategies.iter().zip(&tallies).map(|(&s, t)| t.row(s, mode)).collect()))
+        Ok(crate::score::rank(scoring.rows(&self.strategies, self.mode(), &replays)))
     }
 
     /// Replays every episode (in parallel), in file order.
@@ -300,6 +307,22 @@ pub fn ablate(
     options: crate::demonstrations::CostOptions,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Vec<AblationRow>> {
+    ablate_scored(demos, episodes, strategies, mode, options, Scoring::Spec, progress)
+}
+
+/// [`ablate`] with the score `scoring` computes.
+///
+/// # Errors
+/// As [`ablate`].
+pub fn ablate_scored(
+    demos: &EpisodeSet,
+    episodes: &EpisodeSet,
+    strategies: Option<&[Strategy]>,
+    mode: Mode,
+    options: crate::demonstrations::CostOptions,
+    scoring: Scoring,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<Vec<AblationRow>> {
     // The recorded episodes must come from the demonstrations' environment.
     let env_id =
         demos.meta().env_id.as_deref().or(episodes.meta().env_id.as_deref()).unwrap_or("the demonstrations");
@@ -313,5 +336,5 @@ pub fn ablate(
             &all
         }
     };
-    Ablation::new(&prepared, list)?.run(episodes, progress)
+    Ablation::new(&prepared, list)?.run_scored(episodes, scoring, progress)
 }

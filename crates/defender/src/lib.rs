@@ -3,11 +3,13 @@
 mod ablation;
 mod adaptive_filter;
 mod atomic;
+pub mod authors_collection;
 pub mod collection;
 mod cost;
 mod cost_stream;
 mod defender_env;
 mod demonstrations;
+pub mod diversity;
 mod dynamics;
 mod dynamics_worker;
 mod episode_set;
@@ -18,13 +20,14 @@ mod method;
 pub mod npz;
 mod recorder;
 mod score;
+mod scoring;
 mod screen;
 pub mod selection;
 mod strategy;
 pub mod synthetic;
 mod window;
 
-pub use ablation::{Ablation, EpisodeReplay, Progress, ablate};
+pub use ablation::{Ablation, EpisodeReplay, Progress, ablate, ablate_scored};
 pub use adaptive_filter::AdaptiveFilter;
 pub use atomic::write_atomic;
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
@@ -39,7 +42,11 @@ pub use filter::{Decision, Filter};
 pub use filter_options::{Budget, FilterOptions, MAX_ADAPTIVE_MARGIN, OwnEpisodes};
 pub use method::{Aggregation, Method};
 pub use recorder::EpisodeRecorder;
-pub use score::{AblationRow, CSV_HEADER, StrategyTally, rank, rank_tasks, read_csv, write_csv};
+pub use score::{
+    AblationRow, CSV_HEADER, StrategyTally, csv_scoring, rank, rank_tasks, read_csv, write_csv,
+    write_csv_scored,
+};
+pub use scoring::{AuthorsTally, Scoring};
 pub use screen::{ScreenTally, screen};
 pub use strategy::{Mode, Strategy};
 pub use window::{Span, Window};

@@ -6,6 +6,7 @@ use std::path::Path;
 use crate::atomic::{io_at, write_atomic};
 use crate::error::{DefenderError, Result};
 use crate::method::Method;
+use crate::scoring::Scoring;
 use crate::strategy::{Mode, Strategy};
 
 /// One row of the ablation's output (SPEC section 9).
@@ -17,9 +18,12 @@ pub struct AblationRow {
     pub strategy: Strategy,
     /// The trajectory mode.
     pub mode: Mode,
-    /// `mean_e(ratio_e)`: `(k + 1) / T_e` for an episode filtered at step k, else 1.
+    /// `mean_e(ratio_e)`: `(k + 1) / T_e` for an episode filtered at step k, else 1. Under the
+    /// authors' scoring ([`crate::Scoring::Authors`]), their `mean(k / T_e)`.
     pub mean_ratio: f64,
-    /// `count(safe_e) / |E|`: episodes that did not crash, or crashed and were filtered.
+    /// `count(safe_e) / |E|`: episodes that did not crash, or crashed and were filtered. Under
+    /// the authors' scoring, the share of the episodes shorter than the horizon that were
+    /// filtered (1 when none is).
     pub safe_rate: f64,
     /// `mean_ratio * safe_rate`.
     pub score: f64,
@@ -130,13 +134,28 @@ pub const CSV_HEADER: &str = "rank,strategy,safe_method,unsafe_method,mode,mean_
 /// # Errors
 /// An I/O error.
 pub fn write_csv(path: impl AsRef<Path>, rows: &[AblationRow]) -> Result<()> {
+    write_csv_scored(path, rows, Scoring::Spec)
+}
+
+/// [`write_csv`] for rows `scoring` computed: SPEC's are written as [`write_csv`] writes them;
+/// any other gets a last column, `scoring`, naming it on every row (SPEC section 9 allows
+/// columns after its own), so that a file says what its scores mean.
+///
+/// # Errors
+/// An I/O error.
+pub fn write_csv_scored(path: impl AsRef<Path>, rows: &[AblationRow], scoring: Scoring) -> Result<()> {
     let path = path.as_ref();
+    let extra = match scoring {
+        Scoring::Spec => String::new(),
+        other => format!(",{}", other.name()),
+    };
     write_atomic(path, |w| {
-        writeln!(w, "{CSV_HEADER}").map_err(io_at(path))?;
+        let header_extra = if extra.is_empty() { "" } else { ",scoring" };
+        writeln!(w, "{CSV_HEADER}{header_extra}").map_err(io_at(path))?;
         for r in rows {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{}{extra}",
                 r.rank,
                 r.strategy,
                 r.strategy.safe,
@@ -150,6 +169,26 @@ pub fn write_csv(path: impl AsRef<Path>, rows: &[AblationRow]) -> Result<()> {
         }
         Ok(())
     })
+}
+
+/// The scoring a CSV of [`write_csv_scored`] names in its `scoring` column (`spec` when it has
+/// none, as [`write_csv`] writes SPEC's).
+///
+/// # Errors
+/// An I/O error, or a file without the header of SPEC section 9.
+pub fn csv_scoring(path: impl AsRef<Path>) -> Result<String> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(io_at(path))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or_default();
+    if !header.starts_with(CSV_HEADER) {
+        return Err(DefenderError::Format {
+            path: path.to_owned(),
+            what: format!("line 1: expected the header `{CSV_HEADER}`, got {header:?}"),
+        });
+    }
+    let Some(column) = header.split(',').position(|c| c == "scoring") else { return Ok("spec".into()) };
+    Ok(lines.next().and_then(|l| l.split(',').nth(column)).unwrap_or("spec").to_string())
 }
 
 /// Reads a CSV written by [`write_csv`] (extra trailing columns are ignored).
@@ -259,6 +298,14 @@ mod tests {
         );
         assert!(text.contains("\n1,MinBoth/MinTrajW10,MinBoth,MinTrajW10,state,"), "{text}");
         assert_eq!(read_csv(&path).unwrap(), rows);
+        assert_eq!(csv_scoring(&path).unwrap(), "spec");
+        let authors = dir.path().join("authors.csv");
+        write_csv_scored(&authors, &rows, Scoring::Authors { horizon: 1000 }).unwrap();
+        let text = std::fs::read_to_string(&authors).unwrap();
+        assert!(text.starts_with(&format!("{CSV_HEADER},scoring\n")), "{text}");
+        assert!(text.lines().skip(1).all(|l| l.ends_with(",authors")), "{text}");
+        assert_eq!(read_csv(&authors).unwrap(), rows);
+        assert_eq!(csv_scoring(&authors).unwrap(), "authors");
         std::fs::write(&path, "bad header\n").unwrap();
         assert!(read_csv(&path).unwrap_err().to_string().contains("line 1"));
     }

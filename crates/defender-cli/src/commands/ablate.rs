@@ -5,9 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use defender::{AblationRow, EpisodeSet, Mode, Strategy, Window};
+use defender::{AblationRow, CostOptions, EpisodeSet, Mode, Scoring, Strategy, Window};
 
+use crate::profile::Profile;
 use crate::progress;
+
+/// The recorded episodes the authors' ablation scores: their first 500 (`MAX_EPISODES` of their
+/// `util/ablations/dtw_extract.py`).
+pub const AUTHORS_EPISODES: usize = 500;
 use crate::text_table::{Column, TextTable};
 
 /// Arguments of `defender ablate`.
@@ -24,7 +29,18 @@ Several --demos/--episodes pairs (one per task) rank the strategies by the mean 
 --combine ranks the same way from rankings already written (one CSV per task, the same strategies
 and mode), so tasks can be ablated apart (one at a time, on other machines) and ranked together.
 score = mean episode-length ratio x safe-episode rate (SPEC section 7); the CSV has one row per
-strategy (SPEC section 9) and the top 10 are printed.")]
+strategy (SPEC section 9) and the top 10 are printed.
+
+--profile authors scores as the paper's authors' code did (docs/SPEC.md, section 10): FastDTW
+(radius 1, L1) over the last 20 trajectory steps, one element per transition, ties executed; per
+episode of T steps p = k/T with k the first filtered step (else 1); an episode shorter than the
+horizon counts as crashed and is avoided if filtered; score = mean(p) x mean(avoided over the
+crashed) (mean(p) alone when none crashed); over the first 500 recorded episodes; one task at a
+time; --num-demos N takes N per group chosen for diversity (farthest-point over FastDTW costs).
+Its CSV has the same columns, mean_ratio = mean(p) and safe_rate = the share of crashed episodes
+avoided, and a last column `scoring` = authors.
+  defender ablate --profile authors --demos data/demos/Hopper-v5.npz --episodes hopper-episodes.npz \\
+                  --num-demos 50 --out authors-scores.csv")]
 pub struct AblateArgs {
     /// Demonstration set of a task (repeat once per task, paired in order with --episodes).
     #[arg(long, required_unless_present = "combine")]
@@ -34,7 +50,7 @@ pub struct AblateArgs {
     pub episodes: Vec<PathBuf>,
     /// Rank by the mean over these per-task rankings (CSVs this command wrote) instead of
     /// replaying episodes.
-    #[arg(long, num_args = 2.., conflicts_with_all = ["demos", "episodes", "strategies", "no_equal", "num_demos"])]
+    #[arg(long, num_args = 2.., conflicts_with_all = ["demos", "episodes", "strategies", "no_equal", "num_demos", "horizon"])]
     pub combine: Vec<PathBuf>,
     /// Trajectory elements: states, or state-action pairs.
     #[arg(long, default_value = "state", value_parser = ["state", "state-action"])]
@@ -45,9 +61,17 @@ pub struct AblateArgs {
     /// Leave out the strategies that use the Equal window (the only non-incremental one).
     #[arg(long)]
     pub no_equal: bool,
-    /// Use only the first N demonstrations of each group.
+    /// Use only the first N demonstrations of each group (--profile authors: N chosen for
+    /// diversity).
     #[arg(long)]
     pub num_demos: Option<usize>,
+    /// spec (SPEC section 7, the default) or authors: their cost, score and episodes (above).
+    #[arg(long, value_enum, default_value = "spec")]
+    pub profile: Profile,
+    /// With --profile authors: episodes shorter than this count as crashed [default: the task's
+    /// horizon, from the files' env_id].
+    #[arg(long)]
+    pub horizon: Option<usize>,
     /// Rows to print.
     #[arg(long, default_value_t = 10)]
     pub top: usize,
@@ -70,6 +94,15 @@ pub fn run(args: AblateArgs) -> Result<()> {
     if !args.combine.is_empty() {
         return combine(&args);
     }
+    if args.profile == Profile::Spec && args.horizon.is_some() {
+        bail!("--horizon is for --profile authors (SPEC section 7 reads the recorded `crashed` flags)");
+    }
+    if args.profile == Profile::Authors && args.demos.len() > 1 {
+        bail!(
+            "--profile authors ranks one task at a time, as the authors' code did (give one --demos and \
+             one --episodes; run it once per task)"
+        );
+    }
     refuse_repeats("--episodes", &args.episodes)?;
     if args.num_demos == Some(0) {
         bail!("--num-demos 0: give at least 1 demonstration per group (or leave it out for all)");
@@ -87,37 +120,113 @@ pub fn run(args: AblateArgs) -> Result<()> {
         bail!("no strategy left to score");
     }
     let mut per_task = Vec::new();
+    let mut scoring = Scoring::Spec;
     for (demos_path, episodes_path) in args.demos.iter().zip(&args.episodes) {
         let mut demos = EpisodeSet::load(demos_path)?;
-        if let Some(n) = args.num_demos {
-            demos = demos.select_demos(n)?;
-        }
-        let episodes = EpisodeSet::load(episodes_path)?;
+        let mut episodes = EpisodeSet::load(episodes_path)?;
+        let options = match args.profile {
+            Profile::Spec => {
+                if let Some(n) = args.num_demos {
+                    demos = demos.select_demos(n)?;
+                }
+                CostOptions::default()
+            }
+            Profile::Authors => {
+                scoring = Scoring::Authors { horizon: horizon(&args, &demos, &episodes)? };
+                if let Some(n) = args.num_demos {
+                    demos = choose_diverse(&demos, n, mode)?;
+                }
+                if episodes.len() > AUTHORS_EPISODES {
+                    eprintln!(
+                        "{}: scoring its first {AUTHORS_EPISODES} of {} recorded episodes, as the authors' \
+                         ablation did",
+                        episodes_path.display(),
+                        episodes.len()
+                    );
+                    episodes = episodes.reordered(&(0..AUTHORS_EPISODES).collect::<Vec<_>>())?;
+                }
+                CostOptions::authors()
+            }
+        };
         let task = demos.meta().env_id.clone().unwrap_or_else(|| demos_path.display().to_string());
         let bar = progress::bar(episodes.len() as u64, "episodes");
         bar.set_message(format!("{task}: {} strategies, {} mode", strategies.len(), mode));
-        let rows = defender::ablate(&demos, &episodes, Some(&strategies), mode, Default::default(), &|p| {
-            bar.set_position(p.done as u64);
-        })
-        .with_context(|| {
-            format!("ablation of {} against {}", episodes_path.display(), demos_path.display())
-        })?;
+        let rows =
+            defender::ablate_scored(&demos, &episodes, Some(&strategies), mode, options, scoring, &|p| {
+                bar.set_position(p.done as u64);
+            })
+            .with_context(|| {
+                format!("ablation of {} against {}", episodes_path.display(), demos_path.display())
+            })?;
         bar.finish_and_clear();
         eprintln!("{task}: {} recorded episodes scored", episodes.len());
         per_task.push(rows);
     }
     let rows = if per_task.len() == 1 { per_task.remove(0) } else { defender::rank_tasks(&per_task)? };
-    defender::write_csv(&args.out, &rows)?;
+    defender::write_csv_scored(&args.out, &rows, scoring)?;
     print_top(&rows, args.top);
-    println!("{} strategies ranked -> {}", rows.len(), args.out.display());
+    let scored = match scoring {
+        Scoring::Spec => String::new(),
+        Scoring::Authors { horizon } => format!(" by the authors' score (horizon {horizon})"),
+    };
+    println!("{} strategies ranked{scored} -> {}", rows.len(), args.out.display());
     Ok(())
+}
+
+/// The horizon of the authors' crash test: `--horizon`, else the registered horizon of the task
+/// the files name (their code has 1000 written in, the three MuJoCo tasks' horizon).
+fn horizon(args: &AblateArgs, demos: &EpisodeSet, episodes: &EpisodeSet) -> Result<usize> {
+    if let Some(h) = args.horizon {
+        if h == 0 {
+            bail!("--horizon 0: give the task's horizon in steps (at least 1)");
+        }
+        return Ok(h);
+    }
+    let id = episodes.meta().env_id.as_deref().or(demos.meta().env_id.as_deref());
+    match id.and_then(|id| defender_mujoco::registry().iter().find(|t| t.id == id)) {
+        Some(task) => Ok(task.max_episode_steps),
+        None => bail!(
+            "--profile authors counts an episode shorter than the task's horizon as crashed, and the files \
+             name no known task ({}); give --horizon STEPS",
+            id.map_or("no env_id in their meta".to_string(), |id| format!("env_id \"{id}\""))
+        ),
+    }
+}
+
+/// `n` demonstrations per group chosen for diversity, as the authors' ablation chose them; a
+/// group with fewer keeps all of them (as theirs did), said on the terminal.
+fn choose_diverse(demos: &EpisodeSet, n: usize, mode: Mode) -> Result<EpisodeSet> {
+    let (safe, unsafe_) = demos.group_sizes();
+    for (group, size) in [("safe", safe), ("unsafe", unsafe_)] {
+        if size < n {
+            eprintln!(
+                "{}: the {group} group has {size} demonstrations, fewer than --num-demos {n}: all of them \
+                 are used (as the authors' choice does)",
+                demos.source().display()
+            );
+        }
+    }
+    Ok(defender::diversity::select_diverse(demos, n, mode)?)
 }
 
 /// `--combine`: the mean over per-task rankings, as the ablation of several tasks ranks them.
 fn combine(args: &AblateArgs) -> Result<()> {
+    if args.profile == Profile::Authors {
+        bail!(
+            "--profile authors ranks each task on its own, as the authors' code did: --combine is not for it"
+        );
+    }
     refuse_repeats("--combine", &args.combine)?;
     let mut per_task = Vec::new();
     for path in &args.combine {
+        let scoring = defender::csv_scoring(path).with_context(|| format!("--combine {}", path.display()))?;
+        if scoring != "spec" {
+            bail!(
+                "--combine {}: its scores are the {scoring} score (its `scoring` column); --combine ranks \
+                 SPEC section 7's scores over tasks",
+                path.display()
+            );
+        }
         let rows = defender::read_csv(path).with_context(|| format!("--combine {}", path.display()))?;
         if rows.is_empty() {
             bail!("--combine {}: no strategy rows", path.display());

@@ -3,6 +3,7 @@
 pub mod ablate;
 pub mod bench;
 pub mod demos;
+mod demos_authors;
 pub mod env;
 pub mod report;
 pub mod screen;
