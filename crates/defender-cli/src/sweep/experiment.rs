@@ -21,7 +21,8 @@
 //! eval_freq = 5000
 //! [[arms]]                     # optional: named variants of the grid, each with its own
 //! name = "authors"             # settings over [run] (and optionally its own strategies/algos);
-//! strategies = ["none"]        # its runs are named <algo>-<strategy>[-sa][-nN]-<arm>-s<seed>
+//! strategies = ["none"]        # its runs are named <algo>-<strategy>[-sa][-nN]-<arm>-s<seed>;
+//!                              # one arm may leave out its name: its runs have no suffix
 //! run = { profile = "authors" }
 //! ```
 
@@ -57,7 +58,10 @@ struct ExperimentFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Arm {
-    name: Spanned<String>,
+    /// Left out: the arm's runs carry no suffix (at most one such arm), e.g. the bare runs that
+    /// the named arms are compared with.
+    #[serde(default)]
+    name: Option<Spanned<String>>,
     #[serde(default)]
     strategies: Option<Vec<Spanned<String>>>,
     #[serde(default)]
@@ -294,22 +298,39 @@ pub fn parse(text: &str) -> Result<Experiment> {
             run: file.run.clone(),
         });
     }
+    let mut unnamed = 0;
     for arm in &file.arms {
-        let name = arm.name.get_ref();
-        if name.is_empty() || !name.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
-        {
-            bail!(
-                "{}: arms.name '{name}': use lowercase letters, digits and '-' (it becomes part of run names)",
-                at(&arm.name)
-            );
-        }
+        let name = match &arm.name {
+            None => {
+                unnamed += 1;
+                if unnamed > 1 {
+                    bail!(
+                        "[[arms]]: more than one arm without a name; name all but one (names become part of run names)"
+                    );
+                }
+                None
+            }
+            Some(spanned) => {
+                let name = spanned.get_ref();
+                if name.is_empty()
+                    || !name.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-')
+                {
+                    bail!(
+                        "{}: arms.name '{name}': use lowercase letters, digits and '-' (it becomes part of run names)",
+                        at(spanned)
+                    );
+                }
+                Some(name.as_str())
+            }
+        };
+        let label = name.unwrap_or("(unnamed)");
         let spans = arm.strategies.as_deref().unwrap_or(&g.strategies);
         let algos = arm.algos.as_deref().unwrap_or(&g.algos);
         if spans.is_empty() || algos.is_empty() {
-            bail!("{}: arm '{name}' has an empty list of strategies or algorithms", at(&arm.name));
+            bail!("[[arms]] '{label}' has an empty list of strategies or algorithms");
         }
         arms.push(Expanded {
-            name: Some(name),
+            name,
             algos: parse_algos(algos)?,
             strategies: parse_strategies(spans)?,
             spans,
@@ -486,6 +507,28 @@ learning_starts = 50
         assert_eq!(d.mode, defender::Mode::State);
         let idp = &e.runs[0].config;
         assert_eq!((idp.total_steps, idp.defender.is_none()), (1000, true));
+    }
+
+    #[test]
+    fn arms_add_named_variants_and_one_may_stay_unnamed() {
+        let arms = format!(
+            "{GRID}\n[[arms]]\nstrategies = [\"none\"]\n[[arms]]\nname = \"tight\"\n\
+             strategies = [\"MeanBothW5/MeanBothW5\"]\nrun = {{ defender = {{ filter = {{ margin = 0.05 }} }} }}\n"
+        );
+        let e = parse(&arms).unwrap();
+        let names: Vec<&str> = e.runs.iter().map(|r| r.name.as_str()).collect();
+        assert!(names.contains(&"Hopper-v5/sac-bare-s0"), "{names:?}");
+        assert!(names.contains(&"Hopper-v5/sac-MeanBothW5-MeanBothW5-sa-tight-s1"), "{names:?}");
+        assert!(
+            !names.iter().any(|n| n.contains("MeanDemoW5")),
+            "arms replace the grid's strategies: {names:?}"
+        );
+        let tight = e.runs.iter().find(|r| r.name == "Hopper-v5/sac-MeanBothW5-MeanBothW5-tight-s0").unwrap();
+        assert_eq!(tight.config.defender.as_ref().unwrap().filter.margin, 0.05);
+        let two_unnamed = format!("{GRID}\n[[arms]]\nstrategies = [\"none\"]\n[[arms]]\n");
+        assert!(parse(&two_unnamed).unwrap_err().to_string().contains("more than one arm without a name"));
+        let bad = format!("{GRID}\n[[arms]]\nname = \"Tight\"\n");
+        assert!(format!("{:#}", parse(&bad).unwrap_err()).contains("lowercase"));
     }
 
     /// Every experiment file the project ships expands: a file edited into nonsense is caught
