@@ -279,3 +279,34 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
         assert_eq!(score, demo * ablation, "{line}");
     }
 }
+
+/// `--profile authors` ranks under the authors' cost (FastDTW L1 over the last 20 steps, one
+/// element per transition, ties executed): it runs on the shipped set, and its figures are not
+/// SPEC's.
+#[test]
+fn select_under_the_authors_profile_ranks_with_their_cost() {
+    let tmp = tempfile::tempdir().unwrap();
+    let demos = shipped_demos();
+    let args = |profile: &str, out: &Path| {
+        ok(&[
+            "select",
+            "--demos",
+            s(&demos),
+            "--num-demos",
+            "8",
+            "--strategies",
+            "MeanBothW5/MeanBothW5,MinDemoW5/MinDemoW10",
+            "--profile",
+            profile,
+            "--out",
+            s(out),
+        ])
+    };
+    let (spec, authors) = (tmp.path().join("spec.csv"), tmp.path().join("authors.csv"));
+    args("spec", &spec);
+    args("authors", &authors);
+    let (a, b) = (std::fs::read_to_string(&spec).unwrap(), std::fs::read_to_string(&authors).unwrap());
+    assert_eq!(a.lines().count(), 3);
+    assert_eq!(b.lines().count(), 3);
+    assert_ne!(a, b, "the authors' cost ranks with other figures");
+}

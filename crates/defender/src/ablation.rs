@@ -263,13 +263,12 @@ impl Ablation {
         set: &EpisodeSet,
         progress: &(dyn Fn(Progress) + Sync),
     ) -> Result<Vec<(HeldOut, EpisodeReplay)>> {
-        let mode = self.mode();
         let mut positions = Vec::with_capacity(set.len());
         let (mut safe, mut unsafe_) = (0, 0);
         for e in set.episodes() {
             let (count, refs) =
                 if e.crashed { (&mut unsafe_, self.demos.unsafe_()) } else { (&mut safe, self.demos.safe()) };
-            if refs.lengths().get(*count) != Some(&e.sequence_len(mode)) {
+            if refs.lengths().get(*count) != Some(&self.demos.sequence_len(&e)) {
                 return Err(DefenderError::Mismatch {
                     what: format!(
                         "episode {} of {} vs the prepared demonstrations",

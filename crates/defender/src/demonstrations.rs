@@ -171,6 +171,16 @@ impl Demonstrations {
         self.min_reward
     }
 
+    /// The number of elements of `e`'s sequence as these demonstrations prepare it (SPEC section
+    /// 1, or one element per transition under the authors' `elements`).
+    pub(crate) fn sequence_len(&self, e: &Episode<'_>) -> usize {
+        if self.options.elements == Elements::PerTransition && self.mode == Mode::State {
+            e.len()
+        } else {
+            e.sequence_len(self.mode)
+        }
+    }
+
     /// These demonstrations with `safe` and `unsafe_` episodes appended to their groups, prepared
     /// as the set's own: same mode, cost options and scaling (the scaler stays the one fitted on
     /// the set, so costs keep their scale as groups grow); `R_task` stays the set's.

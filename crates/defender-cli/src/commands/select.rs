@@ -11,6 +11,7 @@ use defender::selection::{AUTO_COSTS, Selection, SelectionConfig, StrategyScore,
 use defender::{EpisodeSet, Mode};
 use defender_report::StrategySelection;
 
+use crate::profile::Profile;
 use crate::progress;
 use crate::text_table::{Column, TextTable};
 
@@ -75,6 +76,11 @@ pub struct SelectArgs {
     /// together, as `--strategy auto` compares them; twice the time).
     #[arg(long, default_value = "none", value_parser = ["none", "zscore", "auto"])]
     pub scaling: String,
+    /// spec (SPEC section 2's exact DTW, the default) or authors: rank under the cost of the
+    /// authors' code (FastDTW L1 over the last 20 steps, one element per transition, ties
+    /// executed: docs/SPEC.md, section 10), as an authors-profile run would filter.
+    #[arg(long, value_enum, default_value = "spec")]
+    pub profile: Profile,
     /// Rows to print.
     #[arg(long, default_value_t = 10)]
     pub top: usize,
@@ -97,10 +103,17 @@ pub fn run(args: SelectArgs) -> Result<()> {
         },
         min_lead: args.min_lead,
         max_false_alarm: args.max_false_alarm,
-        costs: if args.scaling == "auto" {
-            AUTO_COSTS.to_vec()
-        } else {
-            vec![defender::CostOptions::with_scaling(args.scaling.parse()?)]
+        costs: {
+            let scalings: Vec<defender::Scaling> = if args.scaling == "auto" {
+                AUTO_COSTS.iter().map(|c| c.scaling).collect()
+            } else {
+                vec![args.scaling.parse()?]
+            };
+            let base = match args.profile {
+                Profile::Spec => defender::CostOptions::default(),
+                Profile::Authors => defender::CostOptions::authors(),
+            };
+            scalings.into_iter().map(|scaling| defender::CostOptions { scaling, ..base }).collect()
         },
     };
     let demos = EpisodeSet::load(&args.demos)?;
