@@ -24,8 +24,21 @@ import numpy as np
 
 import warnings
 
+from ._args import I64_MAX, U64_MAX, whole
 from ._core import DefenderError, EpisodeSet, derive_seed
 from .horizon import env_horizon
+
+
+def own_time_limit(env: gym.Env) -> int | None:
+    """The time limit the environment itself applies (a ``TimeLimit`` wrapper, else its spec's
+    ``max_episode_steps``), if any."""
+    e = env
+    while isinstance(e, gym.Wrapper):
+        if isinstance(e, gym.wrappers.TimeLimit):
+            return int(e._max_episode_steps)
+        e = e.env
+    spec = getattr(env, "spec", None)
+    return int(spec.max_episode_steps) if spec is not None and spec.max_episode_steps else None
 
 
 def spread(items: list[int], n: int) -> list[int]:
@@ -51,11 +64,20 @@ class DemoRecorder:
     """
 
     def __init__(self, env: gym.Env | str, *, seed: int = 0, max_steps: int = 100_000, horizon: int | None = None):
+        self.seed = whole("seed", seed, 0, U64_MAX)
+        self.max_steps = whole("max_steps", max_steps, 1, I64_MAX)
+        horizon = whole("horizon", horizon, 0, I64_MAX, optional=True)
         self.env = gym.make(env) if isinstance(env, str) else env
-        self.seed = int(seed)
-        self.max_steps = int(max_steps)
         self.env_id = self.env.spec.id if self.env.spec is not None else None
-        self.horizon = env_horizon(self.env) if horizon is None else int(horizon)
+        self.horizon = env_horizon(self.env) if horizon is None else horizon
+        limit = own_time_limit(self.env)
+        if horizon and limit is not None and limit < horizon:
+            # Every episode would be cut before the horizon: none could ever count as safe.
+            raise DefenderError(
+                f"horizon = {horizon} is beyond the environment's time limit of {limit} steps, so no "
+                f"episode could count as safe; give horizon <= {limit} (0 counts every episode that did "
+                "not terminate as safe)"
+            )
         self.candidates: list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]] = []
         self.sources: list[int] = []
         self.left_out: list[int] = []
@@ -105,8 +127,10 @@ class DemoRecorder:
     def select(self, n_safe: int, n_unsafe: int, *, provenance: str | None = None) -> EpisodeSet:
         """``n_safe`` safe and ``n_unsafe`` unsafe demonstrations at evenly spaced positions of
         the candidates, in the order they were recorded."""
+        n_safe = whole("n_safe", n_safe, 1, I64_MAX)
+        n_unsafe = whole("n_unsafe", n_unsafe, 1, I64_MAX)
         safe, unsafe = self.group_sizes
-        if safe < n_safe or unsafe < n_unsafe or n_safe < 1 or n_unsafe < 1:
+        if safe < n_safe or unsafe < n_unsafe:
             raise DefenderError(
                 f"select: {safe} safe and {unsafe} unsafe candidates, asked for {n_safe} and {n_unsafe} "
                 "(at least 1 of each): record more episodes or ask for fewer"
@@ -139,6 +163,16 @@ def collect_demos(
     one episode of ``policy``; stop once both groups have enough candidates and select
     ``n_safe`` + ``n_unsafe`` demonstrations (see :class:`DemoRecorder`: a safe one reached the
     task's horizon, or ``horizon`` steps when given)."""
+    n_safe = whole("n_safe", n_safe, 1, I64_MAX)
+    n_unsafe = whole("n_unsafe", n_unsafe, 1, I64_MAX)
+    max_episodes = whole("max_episodes", max_episodes, 1, I64_MAX)
+    # Each training episode records one candidate: a request that cannot be met is refused
+    # before the training, not after max_episodes of it.
+    if n_safe + n_unsafe > max_episodes:
+        raise DefenderError(
+            f"collect_demos: n_safe + n_unsafe = {n_safe + n_unsafe} exceeds max_episodes = {max_episodes} "
+            "(each training episode records one candidate); raise max_episodes or ask for fewer"
+        )
     recorder = DemoRecorder(env, seed=seed, horizon=horizon)
     for k in range(max_episodes):
         if train is not None:
@@ -147,7 +181,13 @@ def collect_demos(
         if recorder.enough(n_safe, n_unsafe):
             return recorder.select(n_safe, n_unsafe)
     safe, unsafe = recorder.group_sizes
+    left_out = (
+        f"; {len(recorder.left_out)} episodes ended before the horizon of {recorder.horizon} steps without "
+        "terminating and were not kept (horizon=... sets another rule)"
+        if recorder.left_out
+        else ""
+    )
     raise DefenderError(
         f"collect_demos: after {max_episodes} episodes only {safe} safe and {unsafe} unsafe candidates "
-        f"(asked {n_safe} and {n_unsafe}); raise max_episodes or ask for fewer"
+        f"(asked {n_safe} and {n_unsafe}); raise max_episodes or ask for fewer{left_out}"
     )

@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from ._core import Core, DefenderError, EpisodeSet
+from ._args import I64_MAX, U64_MAX, whole
 from .horizon import env_horizon, warn_short_safe
 
 #: The keys :class:`DefenderWrapper` adds to every step's ``info`` (flat scalars, so that SB3's
@@ -71,18 +72,6 @@ def _check_box(space: gym.Space, what: str) -> gym.spaces.Box:
     return space
 
 
-def _whole(name: str, value: Any, low: int, high: int) -> int | None:
-    """``value`` as a Python int in ``[low, high]`` (None stays None); a bool is not a number here."""
-    if value is None:
-        return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be a whole number or None, got {value!r} ({type(value).__name__})")
-    if not low <= int(value) <= high:
-        top = "2**64 - 1" if high == 2**64 - 1 else "2**63 - 1"
-        raise DefenderError(f"{name} must be between {low} and {top}, got {value}")
-    return int(value)
-
-
 def _dynamics_value(key: Any, value: Any) -> Any:
     """A ``dynamics`` value checked before it is sent on (so that the error names the key)."""
     where = f"dynamics[{key!r}]"
@@ -93,7 +82,7 @@ def _dynamics_value(key: Any, value: Any) -> Any:
     if key == "hidden":
         if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
             raise TypeError(f"{where} must be a list of layer widths, got {value!r}")
-        return [_whole(f"{where}[{i}]", w, 1, 2**63 - 1) for i, w in enumerate(value)]
+        return [whole(f"{where}[{i}]", w, 1, I64_MAX) for i, w in enumerate(value)]
     if key in ("learning_rate", "error_ema_alpha"):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise TypeError(f"{where} must be a number, got {value!r}")
@@ -101,8 +90,10 @@ def _dynamics_value(key: Any, value: Any) -> Any:
             raise DefenderError(f"{where} must be a finite number, got {value!r}")
         return float(value)
     if key in ("batch_size", "buffer_size", "learning_starts", "train_freq", "gradient_steps"):
-        return _whole(where, value, 0, 2**63 - 1)
-    return value  # an unknown key: the Rust side names it and lists the known ones
+        return whole(where, value, 0, I64_MAX)
+    # An unknown key: the Rust side names it and lists the known ones, whatever its value, so a
+    # value JSON cannot carry (a numpy scalar, an object) goes as its text.
+    return value if isinstance(value, (str, int, float, type(None))) else repr(value)
 
 
 def _filter_values(filter: Mapping[str, Any]) -> dict:  # noqa: A002
@@ -247,7 +238,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             raise TypeError(f"mode must be 'state' or 'state-action', got {mode!r}")
         if scaling is not None and not isinstance(scaling, str):
             raise TypeError(f"scaling must be 'none', 'zscore' or None, got {scaling!r}")
-        num_demos = _whole("num_demos", num_demos, 1, 2**63 - 1)
+        num_demos = whole("num_demos", num_demos, 1, I64_MAX, optional=True)
         if r_task is not None:
             if isinstance(r_task, (bool, np.bool_)):
                 raise TypeError(f"r_task must be a number or None, got {r_task!r} (a bool)")
@@ -257,7 +248,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
                 raise TypeError(f"r_task must be a number or None, got {r_task!r}") from None
             if not math.isfinite(r_task):
                 raise DefenderError(f"r_task must be a finite number, got {r_task}")
-        seed = _whole("seed", seed, 0, 2**64 - 1)
+        seed = whole("seed", seed, 0, U64_MAX, optional=True)
         if not isinstance(check_finite, (bool, np.bool_)):
             raise TypeError(f"check_finite must be True or False, got {check_finite!r}")
         dynamics_json = None

@@ -173,7 +173,7 @@ def test_unknown_strategy_and_mode(drift_set):
         DefenderWrapper(DriftEnv(), drift_set, r_task=float("nan"))
     with pytest.raises(DefenderError, match="num_demos"):
         DefenderWrapper(DriftEnv(), drift_set, num_demos=0)
-    with pytest.raises(DefenderError, match="asked for 9 demonstrations per group"):
+    with pytest.raises(DefenderError, match="num_demos asks for 9 demonstrations per group"):
         DefenderWrapper(DriftEnv(), drift_set, num_demos=9)
 
 

@@ -4,13 +4,7 @@
 mod commands;
 mod cost_meter;
 mod demo_horizon;
-#[cfg(test)]
-mod fuzz;
-mod inert;
-mod profile;
 mod progress;
-mod resume;
-mod run_config;
 mod run_dir;
 mod setup;
 mod signals;

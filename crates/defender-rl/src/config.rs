@@ -248,6 +248,39 @@ const MAX_LAYER_WIDTH: usize = 1 << 16;
 /// The most weights between hidden layers accepted: 1 GB of f32 per network (and SAC keeps
 /// about ten copies: actor, two critics, their targets and Adam's moments).
 const MAX_HIDDEN_WEIGHTS: usize = 1 << 28;
+/// The largest batch accepted: each layer's activations hold batch x width floats, and a batch
+/// is allocated when the network is built (a larger one fails there, far from the setting).
+pub const MAX_BATCH_SIZE: usize = 1 << 20;
+
+/// Checks hidden layer widths (the agents' `net_arch`, the dynamics model's `hidden`): each at
+/// most 65536 units, and at most 2^28 weights between hidden layers, so that a network is built
+/// or refused here, never aborted by a failed allocation.
+///
+/// # Errors
+/// [`RlError::Config`] naming `field`.
+pub fn check_layers(field: &'static str, widths: &[usize]) -> Result<(), RlError> {
+    let hidden_weights =
+        widths.windows(2).try_fold(0usize, |sum, w| w[0].checked_mul(w[1]).and_then(|n| sum.checked_add(n)));
+    if widths.iter().any(|&w| w > MAX_LAYER_WIDTH) || hidden_weights.is_none_or(|n| n > MAX_HIDDEN_WEIGHTS) {
+        return Err(bad(
+            field,
+            format!("{widths:?}"),
+            "layers of at most 65536 units and at most 2^28 weights between hidden layers (1 GB per network)",
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a batch size: from 1 to [`MAX_BATCH_SIZE`].
+///
+/// # Errors
+/// [`RlError::Config`] naming `batch_size`.
+pub fn check_batch_size(batch_size: usize) -> Result<(), RlError> {
+    if batch_size == 0 || batch_size > MAX_BATCH_SIZE {
+        return Err(bad("batch_size", batch_size, "from 1 to 2^20 (1048576)"));
+    }
+    Ok(())
+}
 
 /// Checks the settings both algorithms share.
 fn check_common(c: Common<'_>) -> Result<(), RlError> {
@@ -258,9 +291,7 @@ fn check_common(c: Common<'_>) -> Result<(), RlError> {
     if buffer_size == 0 {
         return Err(bad("buffer_size", buffer_size, "at least 1"));
     }
-    if batch_size == 0 {
-        return Err(bad("batch_size", batch_size, "at least 1"));
-    }
+    check_batch_size(batch_size)?;
     if !(tau > 0.0 && tau <= 1.0) {
         return Err(bad("tau", tau, "in (0, 1]"));
     }
@@ -273,18 +304,7 @@ fn check_common(c: Common<'_>) -> Result<(), RlError> {
     if net_arch.is_empty() || net_arch.contains(&0) {
         return Err(bad("net_arch", format!("{net_arch:?}"), "one or more positive layer widths"));
     }
-    let hidden_weights = net_arch
-        .windows(2)
-        .try_fold(0usize, |sum, w| w[0].checked_mul(w[1]).and_then(|n| sum.checked_add(n)));
-    if net_arch.iter().any(|&w| w > MAX_LAYER_WIDTH) || hidden_weights.is_none_or(|n| n > MAX_HIDDEN_WEIGHTS)
-    {
-        return Err(bad(
-            "net_arch",
-            format!("{net_arch:?}"),
-            "layers of at most 65536 units and at most 2^28 weights between hidden layers (1 GB per network)",
-        ));
-    }
-    Ok(())
+    check_layers("net_arch", net_arch)
 }
 
 impl SacConfig {
@@ -416,5 +436,18 @@ mod tests {
         let c = Td3Config { net_arch: vec![], ..Td3Config::default() };
         assert!(matches!(c.validate(), Err(RlError::Config { field: "net_arch", .. })));
         assert!(SacConfig::default().validate().is_ok() && Td3Config::default().validate().is_ok());
+    }
+
+    /// Sizes that would abort the process when the networks are built are refused by name.
+    #[test]
+    fn sizes_beyond_memory_are_refused_before_anything_is_built() {
+        let c = SacConfig { batch_size: 1 << 62, ..SacConfig::default() };
+        assert!(matches!(c.validate(), Err(RlError::Config { field: "batch_size", .. })));
+        let c = Td3Config { batch_size: MAX_BATCH_SIZE + 1, ..Td3Config::default() };
+        assert!(matches!(c.validate(), Err(RlError::Config { field: "batch_size", .. })));
+        assert!(check_batch_size(MAX_BATCH_SIZE).is_ok());
+        let err = check_layers("hidden", &[3, 1 << 33]).unwrap_err().to_string();
+        assert!(err.contains("hidden = [3, 8589934592]"), "{err}");
+        assert!(check_layers("hidden", &[]).is_ok() && check_layers("hidden", &[256, 256]).is_ok());
     }
 }

@@ -20,7 +20,7 @@ mod trainer;
 
 pub use agent::{Agent, UpdateStats};
 pub use algo::{Algo, AlgoConfig};
-pub use config::{BcForm, EntCoef, SacConfig, Td3Config};
+pub use config::{BcForm, EntCoef, MAX_BATCH_SIZE, SacConfig, Td3Config, check_batch_size, check_layers};
 /// How many threads the networks' GEMMs use (`Sac::set_parallelism`, `Td3::set_parallelism`).
 pub use defender_nn::Parallelism;
 pub use env::{Env, Step, StepInfo};

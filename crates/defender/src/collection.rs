@@ -116,6 +116,7 @@ impl Candidates {
             if available < asked {
                 return Err(DefenderError::NotEnoughDemos {
                     path: PathBuf::from(format!("<candidates after {training_steps} training steps>")),
+                    setting: "the collection",
                     group,
                     asked,
                     available,

@@ -101,6 +101,13 @@ impl DynamicsConfig {
                 self.batch_size, self.buffer_size, self.train_freq
             ));
         }
+        // The sizes a network and its batch are built with: refused here, not by an allocation
+        // that aborts the process when the model is made.
+        let sized = defender_rl::check_layers("hidden", &self.hidden)
+            .and_then(|()| defender_rl::check_batch_size(self.batch_size));
+        if let Err(e) = sized {
+            return bad(&e.to_string().replace("invalid configuration: ", ""));
+        }
         if !(0.0..=1.0).contains(&self.error_ema_alpha) || self.error_ema_alpha == 0.0 {
             return bad(&format!("error_ema_alpha = {}: it must be in (0, 1]", self.error_ema_alpha));
         }

@@ -48,10 +48,14 @@ pub enum DefenderError {
         crashed: bool,
     },
     /// More demonstrations per group were asked for than the set holds.
-    #[error("{path}: asked for {asked} demonstrations per group, but the {group} group has only {available}")]
+    #[error(
+        "{path}: {setting} asks for {asked} demonstrations per group, but the {group} group has only {available}"
+    )]
     NotEnoughDemos {
         /// The file.
         path: PathBuf,
+        /// What asked for them, as the user sets it (`num_demos`).
+        setting: &'static str,
         /// `safe` or `unsafe`.
         group: &'static str,
         /// The number asked for.

@@ -402,9 +402,14 @@ pub fn select(
     let (n_safe, n_unsafe) = demos.group_sizes();
     for (group, n) in [("safe", n_safe), ("unsafe", n_unsafe)] {
         if n < 2 {
+            // With num_demos given, that is the setting to change; otherwise the file.
+            let fix = match config.num_demos {
+                Some(k) => format!("num_demos = {k}: give at least 2"),
+                None => "add demonstrations to the file".to_string(),
+            };
             return Err(DefenderError::Config(format!(
                 "{}: the {group} group has {n} demonstration; choosing a strategy by leave-one-out \
-                 needs at least 2 per group",
+                 needs at least 2 per group ({fix})",
                 demos.source().display()
             )));
         }

@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use crate::signals::{StopRequest, Stopped};
-use crate::sweep::experiment;
 use crate::sweep::runner::{self, RunState, state_of};
+use defender_config::experiment;
 
 /// Arguments of `defender sweep`.
 #[derive(Debug, Args)]
@@ -48,10 +48,10 @@ pub fn run(args: SweepArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let experiment = experiment::load(&args.experiment)?;
+    let experiment = experiment::load(&args.experiment, &crate::setup::task_ids())?;
     if args.list {
         for run in &experiment.runs {
-            for warning in crate::inert::warnings(&run.config) {
+            for warning in defender_config::inert::warnings(&run.config) {
                 eprintln!("warning: {}: {warning}", run.name);
             }
             let dir = args.out.join(&run.name);

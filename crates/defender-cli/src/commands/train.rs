@@ -13,15 +13,15 @@ use defender_rl::{
 };
 
 use crate::progress;
-use crate::resume;
-use crate::run_config::{
-    DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config, with_profile,
-};
 use crate::run_dir::{self, RunDir};
 use crate::setup::{self, TrainingRecorder};
 use crate::signals::{StopRequest, Stopped};
 use crate::tensorboard::board::{self, TrainingBoard};
 use crate::update_log::{self, UpdateLog};
+use defender_config::resume;
+use defender_config::run_config::{
+    DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config, with_profile,
+};
 
 /// Arguments of `defender train`.
 #[derive(Debug, Args)]
@@ -112,7 +112,7 @@ pub struct TrainArgs {
     /// with a behaviour-cloning term, SAC without warm-up at alpha 0.5, episode ends terminal;
     /// docs/SPEC.md). Keys the configuration gives win; config.toml lists every setting.
     #[arg(long, value_enum)]
-    pub profile: Option<crate::profile::Profile>,
+    pub profile: Option<defender_config::profile::Profile>,
     /// Save the training episodes as an episode set (.npz) for `defender ablate`.
     #[arg(long)]
     pub record_episodes: Option<PathBuf>,
@@ -326,7 +326,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
             args.out.display()
         );
     }
-    for warning in crate::inert::warnings(&config) {
+    for warning in defender_config::inert::warnings(&config) {
         eprintln!("warning: {warning}");
     }
     let built = setup::build(&config)?;

@@ -13,9 +13,9 @@ use std::path::Path;
 
 use anyhow::{Result, bail};
 
-use super::experiment::PlannedRun;
 use super::runner::{RunState, state_of};
-use crate::run_config::{RunConfig, read_config};
+use defender_config::experiment::PlannedRun;
+use defender_config::run_config::{RunConfig, read_config};
 
 /// Settings that may differ because they do not change what the agent learns or what the report
 /// reads: where and how often a run saves its work (`record_episodes` is an absolute path inside
@@ -32,7 +32,7 @@ fn operational(key: &str) -> bool {
 pub fn differences(dir: &Path, planned: &RunConfig) -> Result<Vec<String>> {
     let saved = read_config(&dir.join("config.toml"))?;
     let planned = &planned.clone().keeping_automatic_choice_of(&saved);
-    let mut diffs: Vec<String> = crate::resume::differences(&saved, planned, true)?
+    let mut diffs: Vec<String> = defender_config::resume::differences(&saved, planned, true)?
         .into_iter()
         .filter(|line| !operational(line.split(':').next().unwrap_or_default()))
         .collect();

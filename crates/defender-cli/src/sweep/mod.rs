@@ -3,5 +3,4 @@
 //! (`python/defender_rl/tune.py`), from the same expansion (`defender sweep --list --json`).
 
 pub mod complete;
-pub mod experiment;
 pub mod runner;

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 
-use super::experiment::PlannedRun;
 use crate::signals::StopRequest;
+use defender_config::experiment::PlannedRun;
 
 /// Where a run of the sweep stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

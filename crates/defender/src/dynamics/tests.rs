@@ -75,6 +75,21 @@ fn bad_transitions_are_refused() {
     assert!(DynamicsModel::new(3, 1, DynamicsConfig { batch_size: 0, ..small_config() }, &mut rng).is_err());
 }
 
+/// Sizes that would abort the process (a failed allocation) or panic (a capacity overflow)
+/// when the model is built are refused by `validate`, naming the key.
+#[test]
+fn sizes_beyond_memory_are_refused_by_name() {
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    for (config, key) in [
+        (DynamicsConfig { hidden: vec![1 << 40], ..small_config() }, "hidden = [1099511627776]"),
+        (DynamicsConfig { hidden: vec![3, 1 << 33], ..small_config() }, "hidden = [3, 8589934592]"),
+        (DynamicsConfig { batch_size: 1 << 62, ..small_config() }, "batch_size = 4611686018427387904"),
+    ] {
+        let err = DynamicsModel::new(3, 1, config, &mut rng).unwrap_err().to_string();
+        assert!(err.contains(key), "{err}");
+    }
+}
+
 #[test]
 fn save_and_load_continue_bit_for_bit() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);

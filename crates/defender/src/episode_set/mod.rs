@@ -290,6 +290,7 @@ impl EpisodeSet {
             if available < n {
                 return Err(DefenderError::NotEnoughDemos {
                     path: self.source.clone(),
+                    setting: "num_demos",
                     group,
                     asked: n,
                     available,
@@ -383,7 +384,7 @@ mod tests {
         assert_eq!(one.episode(0).obs, set.episode(0).obs);
         assert_eq!(one.episode(1).obs, set.episode(1).obs);
         let err = set.select_demos(2).unwrap_err().to_string();
-        assert!(err.contains("unsafe group has only 1"), "{err}");
+        assert!(err.contains("num_demos asks for 2") && err.contains("unsafe group has only 1"), "{err}");
         assert!(set.select_demos(0).is_err());
         let back = set.reordered(&[2, 0]).unwrap();
         assert_eq!((back.len(), back.episode(0).obs), (2, set.episode(2).obs));

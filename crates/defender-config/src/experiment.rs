@@ -209,10 +209,12 @@ pub fn strategy_slug(strategy: &str) -> String {
 
 /// Reads and expands an experiment file, and checks every run's configuration before any
 /// starts (its values, and `num_demos` against its demonstration file); every error names the
-/// file, the run and, where it can, the line, the key and the value.
-pub fn load(path: &Path) -> Result<Experiment> {
+/// file, the run and, where it can, the line, the key and the value. `tasks`: the task ids a run
+/// may name (the simulator's registry; this crate does not link it).
+pub fn load(path: &Path, tasks: &[&str]) -> Result<Experiment> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let experiment = parse(&text).with_context(|| format!("{}: not a valid experiment", path.display()))?;
+    let experiment =
+        parse(&text, tasks).with_context(|| format!("{}: not a valid experiment", path.display()))?;
     // Each demonstration file is read once, for all the runs that use it.
     let mut sizes: BTreeMap<std::path::PathBuf, (usize, usize)> = BTreeMap::new();
     let mut read = |demos: &Path| -> Result<(usize, usize)> {
@@ -233,8 +235,8 @@ pub fn load(path: &Path) -> Result<Experiment> {
     Ok(experiment)
 }
 
-/// Parses and expands an experiment from its text.
-pub fn parse(text: &str) -> Result<Experiment> {
+/// Parses and expands an experiment from its text; `tasks`: the task ids a run may name.
+pub fn parse(text: &str, tasks: &[&str]) -> Result<Experiment> {
     let file: ExperimentFile = toml::from_str(text)?;
     let at = |s: &Spanned<String>| {
         if s.span().is_empty() {
@@ -255,10 +257,9 @@ pub fn parse(text: &str) -> Result<Experiment> {
             bail!("{name} is empty: the grid would have no runs");
         }
     }
-    let known: Vec<&str> = defender_mujoco::TASKS.iter().map(|t| t.id).collect();
     for env in &g.envs {
-        if !known.contains(&env.get_ref().as_str()) {
-            bail!("{}: unknown task '{}' in grid.envs (known: {})", at(env), env.get_ref(), known.join(", "));
+        if !tasks.contains(&env.get_ref().as_str()) {
+            bail!("{}: unknown task '{}' in grid.envs (known: {})", at(env), env.get_ref(), tasks.join(", "));
         }
     }
     let parse_algos = |list: &[Spanned<String>]| -> Result<Vec<Algo>> {
@@ -474,6 +475,9 @@ fn run_config(
 mod tests {
     use super::*;
 
+    /// The simulator's task ids (`defender_mujoco::TASKS`, which this crate does not link).
+    const TASKS: &[&str] = &["Hopper-v5", "Walker2d-v5", "InvertedDoublePendulum-v5"];
+
     const GRID: &str = r#"
 description = "test"
 [grid]
@@ -492,7 +496,7 @@ learning_starts = 50
 
     #[test]
     fn expands_to_named_runs_with_their_overrides() {
-        let e = parse(GRID).unwrap();
+        let e = parse(GRID, TASKS).unwrap();
         let names: Vec<&str> = e.runs.iter().map(|r| r.name.as_str()).collect();
         // Per task: 2 bare + 2 modes x 2 seeds DEFENDER.
         assert_eq!(names.len(), 12, "{names:?}");
@@ -544,13 +548,13 @@ learning_starts = 50
         files.sort();
         assert!(files.len() >= 6, "{files:?}");
         for file in files {
-            let e = load(&file).unwrap_or_else(|err| panic!("{err:#}"));
+            let e = load(&file, TASKS).unwrap_or_else(|err| panic!("{err:#}"));
             assert!(!e.runs.is_empty() && !e.description.is_empty(), "{}", file.display());
         }
     }
 
     fn refused(text: &str, expect: &[&str]) {
-        let err = format!("{:#}", parse(text).unwrap_err());
+        let err = format!("{:#}", parse(text, TASKS).unwrap_err());
         for e in expect {
             assert!(err.contains(e), "'{e}' not in: {err}");
         }
@@ -602,7 +606,7 @@ learning_starts = 50
         let file = dir.path().join("x.toml");
         let text = GRID.replace("seeds = [0, 1]", "seeds = [0, 1]\nnum_demos = [50, 51]");
         std::fs::write(&file, text).unwrap();
-        let err = format!("{:#}", load(&file).unwrap_err());
+        let err = format!("{:#}", load(&file, TASKS).unwrap_err());
         for e in [
             "x.toml",
             "run 'InvertedDoublePendulum-v5/sac-MeanDemoW5-MeanDemoW10-n51-s0'",

@@ -96,13 +96,14 @@ impl LogSection {
     }
 }
 
-pub(crate) fn five() -> usize {
+/// The default `eval_episodes`.
+pub fn five() -> usize {
     5
 }
 
-/// Checkpoints every 2 minutes by default: a checkpoint of a 100k-step run takes well under a
+/// The default `checkpoint_every_seconds`. Checkpoints every 2 minutes by default: a checkpoint of a 100k-step run takes well under a
 /// second, and a scheduler's kill -9 then loses at most about 2 minutes of training.
-pub(crate) fn default_checkpoint_seconds() -> u64 {
+pub fn default_checkpoint_seconds() -> u64 {
     120
 }
 
@@ -180,7 +181,7 @@ impl RunConfig {
     ) -> Result<()> {
         let Some(d) = &self.defender else { return Ok(()) };
         // With no file known (an installed binary, no --demos), the run itself says so when built.
-        let Some(path) = d.demos.clone().or_else(|| crate::setup::shipped_demos(&self.env)) else {
+        let Some(path) = d.demos.clone().or_else(|| crate::shipped_demos(&self.env)) else {
             return Ok(());
         };
         let (safe, unsafe_) = sizes(&path)?;
@@ -410,7 +411,7 @@ mod tests {
 
     /// A `config.toml` written by an earlier version (results/table1, before `demos_sha256`,
     /// `checkpoint_every_seconds` and the pinned copy existed).
-    const TABLE1_IDP: &str = include_str!("../tests/fixtures/idp-run/config.toml");
+    const TABLE1_IDP: &str = include_str!("../../defender-cli/tests/fixtures/idp-run/config.toml");
 
     /// Every key of `value` as `dotted.key = value` pairs.
     fn pairs(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::Value)>) {
