@@ -519,7 +519,7 @@ learning_starts = 50
             "{GRID}\n[[arms]]\nstrategies = [\"none\"]\n[[arms]]\nname = \"tight\"\n\
              strategies = [\"MeanBothW5/MeanBothW5\"]\nrun = {{ defender = {{ filter = {{ margin = 0.05 }} }} }}\n"
         );
-        let e = parse(&arms).unwrap();
+        let e = parse(&arms, TASKS).unwrap();
         let names: Vec<&str> = e.runs.iter().map(|r| r.name.as_str()).collect();
         assert!(names.contains(&"Hopper-v5/sac-bare-s0"), "{names:?}");
         assert!(names.contains(&"Hopper-v5/sac-MeanBothW5-MeanBothW5-sa-tight-s1"), "{names:?}");
@@ -530,9 +530,11 @@ learning_starts = 50
         let tight = e.runs.iter().find(|r| r.name == "Hopper-v5/sac-MeanBothW5-MeanBothW5-tight-s0").unwrap();
         assert_eq!(tight.config.defender.as_ref().unwrap().filter.margin, 0.05);
         let two_unnamed = format!("{GRID}\n[[arms]]\nstrategies = [\"none\"]\n[[arms]]\n");
-        assert!(parse(&two_unnamed).unwrap_err().to_string().contains("more than one arm without a name"));
+        assert!(
+            parse(&two_unnamed, TASKS).unwrap_err().to_string().contains("more than one arm without a name")
+        );
         let bad = format!("{GRID}\n[[arms]]\nname = \"Tight\"\n");
-        assert!(format!("{:#}", parse(&bad).unwrap_err()).contains("lowercase"));
+        assert!(format!("{:#}", parse(&bad, TASKS).unwrap_err()).contains("lowercase"));
     }
 
     /// Every experiment file the project ships expands: a file edited into nonsense is caught

@@ -7,8 +7,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use defender::{AblationRow, CostOptions, EpisodeSet, Mode, Scoring, Strategy, Window};
 
-use crate::profile::Profile;
 use crate::progress;
+use defender_config::profile::Profile;
 
 /// The recorded episodes the authors' ablation scores: their first 500 (`MAX_EPISODES` of their
 /// `util/ablations/dtw_extract.py`).

@@ -15,8 +15,8 @@ use defender_rl::{
     Trainer, TrainerConfig, derive_seed,
 };
 
-use crate::profile::Profile;
 use crate::progress;
+use defender_config::profile::Profile;
 
 /// `defender demos` subcommands.
 #[derive(Debug, Subcommand)]

@@ -13,8 +13,8 @@ use defender_rl::{
 };
 
 use super::demos::{CollectArgs, make_env, record_episode};
-use crate::profile::Profile;
 use crate::progress;
+use defender_config::profile::Profile;
 
 /// Their training budget, in episodes (`HyperParams.num_episodes`).
 const AUTHORS_EPISODES: u64 = 5000;

@@ -11,9 +11,9 @@ use defender::selection::{AUTO_COSTS, Selection, SelectionConfig, StrategyScore,
 use defender::{EpisodeSet, Mode};
 use defender_report::StrategySelection;
 
-use crate::profile::Profile;
 use crate::progress;
 use crate::text_table::{Column, TextTable};
+use defender_config::profile::Profile;
 
 /// Arguments of `defender select`.
 #[derive(Debug, Args)]
