@@ -117,7 +117,7 @@ def _filter_values(filter: Mapping[str, Any]) -> dict:  # noqa: A002
             inner: dict[str, Any] = {}
             for k, v in value.items():
                 w = f"{where}[{k!r}]"
-                inner[k] = number(w, v) if k == "share" else _whole(w, v, 0, 2**63 - 1)
+                inner[k] = number(w, v) if k == "share" else whole(w, v, 0, I64_MAX)
             out[key] = inner
         else:
             out[key] = value  # an unknown key: the Rust side names it and lists the known ones
