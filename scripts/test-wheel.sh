@@ -22,11 +22,11 @@ for tool in cargo rustc rustup maturin; do
 done
 
 echo "test-wheel: a fresh venv with $WHEEL"
-start=$(date +%s.%N)
+start=$(date +%s)
 "$PY" -m venv "$WORK/venv"
 "$WORK/venv/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
   "$WHEEL[mujoco]" -r python/requirements-wheel-test.txt
-echo "test-wheel: installed in $(echo "$(date +%s.%N) - $start" | bc) s"
+echo "test-wheel: installed in $(( $(date +%s) - start )) s"
 
 cd "$WORK/run"
 env -i HOME="$HOME" LANG=C.UTF-8 TMPDIR="${TMPDIR:-/tmp}" \
