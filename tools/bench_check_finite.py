@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The per-step cost of ``DefenderWrapper(check_finite=True)`` (the default: every reward,
 observation and action is checked for NaN and infinity) against ``check_finite=False``
-(docs/benchmarks.md, "Python wrapper: check_finite").
+(docs/benchmarks-python.md, "Python wrapper: check_finite").
 
 Two wrappers around Gymnasium's Hopper-v5 (the shipped demonstrations, MeanDemoW5/MeanDemoW10,
 the dynamics model's training excluded as in bench_python_wrapper.py), one with the checks and

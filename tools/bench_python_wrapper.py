@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark of the Python front (docs/benchmarks.md, "Python wrapper").
+"""Benchmark of the Python front (docs/benchmarks-python.md, "Python wrapper").
 
 1. The wrapper's own cost per step on Gymnasium's Hopper-v5 with MeanDemoW5/MeanDemoW10 and the
    shipped demonstrations, the dynamics model's training excluded (``learning_starts`` beyond

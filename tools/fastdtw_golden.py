@@ -16,7 +16,7 @@ float64, as the authors' code did with its observations.
 
 This is the module a normal `pip install fastdtw==0.3.4` imports: PyPI has only the source
 archive, whose build (isolated, without numpy) cannot compile the Cython extension and installs
-the pure-Python `fastdtw/fastdtw.py` (see docs/decisions.md). The script refuses to run against
+the pure-Python `fastdtw/fastdtw.py` (see docs/decisions-authors.md). The script refuses to run against
 the compiled extension, whose windows and tie-breaking differ.
 
 Run: .deps/tools-venv/bin/python tools/fastdtw_golden.py   (fastdtw 0.3.4, numpy)

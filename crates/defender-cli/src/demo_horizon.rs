@@ -3,7 +3,7 @@
 //! another `max_episode_steps`, or by a collector's own cap) did not crash, but never showed a
 //! whole episode of the task. `defender train` warns when the safe demonstrations it uses end
 //! before the task's horizon, naming how many and their lengths (as `DefenderWrapper` does in
-//! Python; docs/decisions.md).
+//! Python; docs/decisions-python.md).
 
 use defender::EpisodeSet;
 

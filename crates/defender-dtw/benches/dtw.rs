@@ -3,7 +3,7 @@
 //! authors' profile: FastDTW of a 20-element trajectory against 100 demonstrations, beside exact
 //! DTW of the same shapes.
 //!
-//! `cargo bench -p defender-dtw --bench dtw` (figures in docs/benchmarks.md).
+//! `cargo bench -p defender-dtw --bench dtw` (figures in docs/benchmarks-core.md).
 
 use std::hint::black_box;
 

@@ -1,6 +1,6 @@
 //! FastDTW (Salvador & Chan), exactly as the PyPI `fastdtw` package 0.3.4 computes it: the
 //! approximate DTW the DEFENDER paper's code used (`fastdtw(x, y, radius=1, dist=None)`).
-//! docs/decisions.md ("FastDTW as the package computes it") says which of the package's two
+//! docs/decisions-authors.md ("FastDTW as the package computes it") says which of the package's two
 //! implementations this follows and why.
 
 use crate::error::{DtwError, Result, check_sequence};

@@ -1,6 +1,6 @@
 //! Forward + backward of a 256-wide MLP at batch 256, and a SAC-shaped update.
 //!
-//! `cargo bench -p defender-nn --bench mlp`; figures go to docs/benchmarks.md. Throughput is
+//! `cargo bench -p defender-nn --bench mlp`; figures go to docs/benchmarks-core.md. Throughput is
 //! in FLOP (2 per multiply-add), so "Gelem/s" reads as GFLOP/s.
 #![allow(missing_docs)]
 

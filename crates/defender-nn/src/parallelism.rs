@@ -5,7 +5,7 @@ use std::num::NonZeroUsize;
 use faer::Par;
 
 /// Below this many multiply-adds a GEMM runs on one thread whatever the setting: waking a second
-/// thread costs more than it saves. Measured on the 2-core machine (docs/benchmarks.md, "Small
+/// thread costs more than it saves. Measured on the 2-core machine (docs/benchmarks-core.md, "Small
 /// GEMMs on one thread"): at the former 64^3 threshold a SAC step on Hopper-v5 took 7.6 ms, with
 /// the critics' 14-wide first layer (256x14x256) and the dynamics model's batch-64 layers
 /// (64x256x256) split; with these on one thread, 5.2 ms. A 256x256 layer over a batch of 256
@@ -28,7 +28,7 @@ pub enum Parallelism {
 impl Default for Parallelism {
     /// `DEFENDER_NN_THREADS` if set (`1` forces sequential), else
     /// `min(2, available cores)`: two threads are ~1.6x faster than one on 256-wide GEMMs on
-    /// the project's 2-core machine (see docs/benchmarks.md).
+    /// the project's 2-core machine (see docs/benchmarks-core.md).
     fn default() -> Self {
         let from_env = std::env::var("DEFENDER_NN_THREADS").ok().and_then(|s| s.trim().parse::<usize>().ok());
         let n = from_env

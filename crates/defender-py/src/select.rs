@@ -14,7 +14,7 @@ use crate::episodes::episode_set_arg;
 use crate::{DefenderError, defender_err, guard};
 
 /// Runs `f` on a rayon pool of its own, dropped when `f` returns, instead of rayon's global pool:
-/// the global pool does not survive `fork()`, and vector environments fork (docs/decisions.md,
+/// the global pool does not survive `fork()`, and vector environments fork (docs/decisions-python.md,
 /// "The Python front"). `threads`: the pool's size (a Ray task given one CPU asks for 1);
 /// `None`: every core.
 pub(crate) fn on_local_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {

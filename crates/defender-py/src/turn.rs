@@ -1,5 +1,5 @@
-//! One call at a time into a `DefenderWrapper`, without deadlocks (docs/decisions.md, "Threads
-//! and re-entrant calls in the Python wrapper").
+//! One call at a time into a `DefenderWrapper`, without deadlocks (docs/decisions.md, "Misuse
+//! never hangs").
 //!
 //! A call into the wrapper may run Python (the wrapped environment's `step`), and that Python may
 //! let the GIL go (`time.sleep`, I/O, a simulator's C code). So a second thread can enter the

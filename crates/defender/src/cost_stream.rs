@@ -2,7 +2,7 @@
 //! whatever the cost options: SPEC's exact Euclidean DTW over the whole trajectory is
 //! incremental (`defender_dtw::Stream`); any other cost (FastDTW, the L1 distance, a trajectory
 //! cap) is recomputed from the last `trajectory_cap` elements at every step, which a cap keeps
-//! bounded (docs/benchmarks.md, "The authors' cost per step").
+//! bounded (docs/benchmarks-core.md, "FastDTW: one filter step of the authors' profile").
 
 use std::sync::Arc;
 

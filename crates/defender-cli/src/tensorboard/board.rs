@@ -18,7 +18,7 @@
 //!
 //! A checkpoint records the file's name and length (`extra/tensorboard.json`); a resumed run
 //! truncates the file to that length, so the steps after the checkpoint, trained again, appear
-//! once (docs/decisions.md, "TensorBoard event files").
+//! once (docs/decisions-python.md, "TensorBoard event files").
 
 use std::collections::VecDeque;
 use std::path::Path;

@@ -7,7 +7,7 @@
 //!
 //! A file is appended to as training goes and flushed about every second (see `board`), so a run can be
 //! watched live; [`EventFile::offset`] is the length of what has been written, which a checkpoint
-//! records so that a resumed run truncates what came after it (docs/decisions.md).
+//! records so that a resumed run truncates what came after it (docs/decisions-python.md).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
