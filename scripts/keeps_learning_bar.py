@@ -2,8 +2,10 @@
 """The bar of "a filter that keeps learning", recomputed from committed run directories.
 
     python3 scripts/keeps_learning_bar.py results/keeps-learning
+    python3 scripts/keeps_learning_bar.py results/keeps-learning --chosen chosen-demos.txt
 
-`chosen.txt` in that folder names, one line per task, the run directories (relative to the
+`chosen.txt` in that folder (or the file `--chosen` names there: one file per configuration
+fixed before its runs) names, one line per task, the run directories (relative to the
 folder) of the configuration fixed before the runs; the bare runs it is held against are the
 task's `sac-bare-s<seed>` directories beside them. Per task the configuration passes when, as
 means over its seeds:
@@ -51,8 +53,9 @@ def measures(run: Path) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("folder", type=Path)
+    parser.add_argument("--chosen", default="chosen.txt", help="the configuration's file in FOLDER [default: chosen.txt]")
     args = parser.parse_args()
-    lines = (args.folder / "chosen.txt").read_text().split("\n")
+    lines = (args.folder / args.chosen).read_text().split("\n")
     verdicts = []
     print("| task | runs | % Crash | bare % Crash | last-10 eval | bare last-10 | standing evals | verdict |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | --- |")
