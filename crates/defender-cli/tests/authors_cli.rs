@@ -349,3 +349,19 @@ fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
     let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
     assert!(config.contains("demos_in_replay = true") && config.contains("demos_sha256"), "{config}");
 }
+
+#[test]
+fn the_shipped_authors_set_is_what_its_readme_says() {
+    // data/demos/authors/README.md describes each file; a set remade with other settings must
+    // change the README too.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/authors/InvertedDoublePendulum-v5.npz");
+    let set = EpisodeSet::load(&path).unwrap();
+    assert_eq!(set.group_sizes(), (20, 80));
+    assert_eq!(set.transitions(), 22_141);
+    let meta = &set.meta().extra;
+    assert_eq!(meta["collection"], "authors");
+    assert_eq!(meta["demonstrate_every"], 4);
+    assert_eq!(meta["training_episodes"], 400);
+    let r_task = meta["r_task"].as_f64().unwrap() as f32;
+    assert_eq!(Some(r_task), set.min_reward());
+}
