@@ -354,7 +354,8 @@ fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
 fn the_shipped_authors_set_is_what_its_readme_says() {
     // data/demos/authors/README.md describes each file; a set remade with other settings must
     // change the README too.
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/authors/InvertedDoublePendulum-v5.npz");
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/authors/InvertedDoublePendulum-v5.npz");
     let set = EpisodeSet::load(&path).unwrap();
     assert_eq!(set.group_sizes(), (20, 80));
     assert_eq!(set.transitions(), 22_141);
