@@ -12,7 +12,7 @@ from typing import Any, Mapping, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
-from ._core import Core, DefenderError, EpisodeSet
+from ._core import Core, DefenderError, EpisodeSet, profile_filter
 from ._args import I64_MAX, U64_MAX, whole
 from .horizon import env_horizon, warn_short_safe
 
@@ -186,7 +186,15 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``n`` episodes, default 100); ``{"own_episodes": {"keep": k}}`` lets the agent's own
             episodes join the demonstrations (its crashes the unsafe group, episodes that reach
             the horizon the safe one; at most ``k`` per group, the oldest replaced). The margin
-            and own-episode counts in use are in :attr:`filter_state`.
+            and own-episode counts in use are in :attr:`filter_state`. Keys given here win over
+            ``profile``'s.
+        profile: ``"spec"`` (SPEC's filter unless ``filter`` says otherwise) or
+            ``"keeps-learning"``: the filter of ``defender train --profile keeps-learning``
+            (``{"margin": 0.02, "own_episodes": {"keep": 50}}``; docs/SPEC.md, section 11). That
+            profile's other half is the learner's, which a wrapper cannot change: the runs that
+            held the bar also put every demonstration transition into SAC's replay buffer and
+            added a behaviour-cloning term (docs/results-keeps-learning.md); the filter alone
+            reached 59% of bare SAC's late return on Hopper-v5.
         check_finite: a NaN or infinity in a reward or observation of the wrapped environment, or
             in an action given to :meth:`step`, raises :class:`DefenderError` naming the step, the
             field and the element (as Stable-Baselines3's ``VecCheckNan`` does, but on by
@@ -219,12 +227,14 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         scaling: str | None = None,
         check_finite: bool = True,
         filter: Mapping[str, Any] | None = None,  # noqa: A002 (the [defender.filter] section's name)
+        profile: str = "spec",
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
             dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite, filter=filter,
+            profile=profile,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
         _warn_statistics_inside(env)
@@ -256,11 +266,15 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             if not isinstance(dynamics, Mapping):
                 raise TypeError(f"dynamics must be a dict of DynamicsConfig fields, got {type(dynamics).__name__}")
             dynamics_json = json.dumps({k: _dynamics_value(k, v) for k, v in dynamics.items()})
-        filter_json = None
-        if filter is not None:
-            if not isinstance(filter, Mapping):
-                raise TypeError(f"filter must be a dict of [defender.filter] settings, got {type(filter).__name__}")
-            filter_json = json.dumps(_filter_values(filter))
+        if not isinstance(profile, str):
+            raise TypeError(f"profile must be 'spec' or 'keeps-learning', got {profile!r}")
+        if filter is not None and not isinstance(filter, Mapping):
+            raise TypeError(f"filter must be a dict of [defender.filter] settings, got {type(filter).__name__}")
+        # The profile's settings, then what `filter` gives over them (as `defender train --profile`
+        # fills around the configuration's keys).
+        merged = {**json.loads(profile_filter(profile)), **dict(filter or {})}
+        filter_json = json.dumps(_filter_values(merged)) if merged else None
+        self._profile = profile
         if isinstance(demos, (str, os.PathLike)):
             demos = os.fspath(demos)
         env_id = env.spec.id if env.spec is not None else None
@@ -331,6 +345,11 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         """Counters since construction: ``steps``, ``filtered_steps``, ``real_steps``,
         ``episodes``, ``filtered_episodes``, ``crashed_episodes``, ``truncated_episodes``."""
         return self._core.stats()
+
+    @property
+    def profile(self) -> str:
+        """The profile the filter's settings started from (``profile=``)."""
+        return self._profile
 
     @property
     def filter_state(self) -> dict[str, float]:

@@ -64,3 +64,27 @@ def test_bad_filter_values_are_named(drift_set, bad, exc, words):
     with pytest.raises(exc, match=None) as e:
         DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, filter=bad)
     assert words in str(e.value), str(e.value)
+
+
+def test_the_keeps_learning_profile_gives_its_filter_and_filter_wins(drift_set):
+    env = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="keeps-learning")
+    assert env.profile == "keeps-learning"
+    assert env.filter_state == {"margin": 0.02, "own_safe": 0, "own_unsafe": 0}
+    outcomes = full_throttle_episodes(env, 4)
+    assert env.filter_state["own_unsafe"] == min(outcomes.count("crashed"), 50)
+    over = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="keeps-learning",
+                           filter={"margin": 0.5})
+    assert over.filter_state["margin"] == 0.5
+    spec = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1)
+    assert spec.profile == "spec" and spec.filter_state["margin"] == 0.0
+
+
+@pytest.mark.parametrize(
+    "bad, exc, words",
+    [("authors", DefenderError, "defender train --profile authors"), ("paper", DefenderError, "'paper'"),
+     (3, TypeError, "profile must be")],
+)
+def test_bad_profiles_are_named(drift_set, bad, exc, words):
+    with pytest.raises(exc) as e:
+        DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile=bad)
+    assert words in str(e.value), str(e.value)

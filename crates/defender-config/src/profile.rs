@@ -19,6 +19,12 @@ pub enum Profile {
     /// demonstrations too (in its replay buffer, SAC with a behaviour-cloning term); SAC without
     /// a random warm-up, a fixed entropy coefficient, every episode end terminal.
     Authors,
+    /// The filter that cuts crashes and still learns (docs/results-keeps-learning.md): SPEC's
+    /// cost, a decision margin of 0.02 on the costs, the agent's own episodes joining the
+    /// demonstrations (50 per group), and the learner also learning from the demonstrations
+    /// (every demonstration transition in its replay buffer; SAC with a per-row
+    /// behaviour-cloning term of weight 1 on the safe demonstrations' rows).
+    KeepsLearning,
 }
 
 impl Profile {
@@ -27,6 +33,30 @@ impl Profile {
         match self {
             Profile::Spec => "spec",
             Profile::Authors => "authors",
+            Profile::KeepsLearning => "keeps-learning",
+        }
+    }
+
+    /// The profile named `name` in a configuration.
+    ///
+    /// # Errors
+    /// An unknown name, listing the known ones.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "spec" => Ok(Profile::Spec),
+            "authors" => Ok(Profile::Authors),
+            "keeps-learning" => Ok(Profile::KeepsLearning),
+            other => bail!("profile = \"{other}\": unknown profile (expected {KNOWN})"),
+        }
+    }
+
+    /// The DTW cost this profile compares trajectories with (`defender select`, `ablate`): the
+    /// authors' for `authors`, SPEC's otherwise (`keeps-learning` changes the filter's decision
+    /// and the learner, not the cost).
+    pub fn cost_options(self) -> defender::CostOptions {
+        match self {
+            Profile::Authors => defender::CostOptions::authors(),
+            Profile::Spec | Profile::KeepsLearning => defender::CostOptions::default(),
         }
     }
 
@@ -34,8 +64,10 @@ impl Profile {
     /// `[defender]` section, as a TOML table.
     pub fn settings(self, algo: &str, defender: bool) -> toml::Table {
         let mut t = toml::Table::new();
-        if self == Profile::Spec {
-            return t;
+        match self {
+            Profile::Spec => return t,
+            Profile::KeepsLearning => return keeps_learning(algo, defender),
+            Profile::Authors => {}
         }
         let mut agent = toml::Table::new();
         // No random warm-up: the stochastic policy acts from step 0 and learning starts once a
@@ -64,6 +96,32 @@ impl Profile {
     }
 }
 
+/// The names a configuration may give.
+const KNOWN: &str = "\"spec\", \"authors\" or \"keeps-learning\"";
+
+/// `keeps-learning`'s settings: nothing for a bare run (bare SAC is the yardstick), and for a
+/// DEFENDER run the configuration that held the bar of docs/results-keeps-learning.md. TD3 gets
+/// the same filter and the demonstrations in its buffer (it has no cloning term); that
+/// combination is unmeasured.
+fn keeps_learning(algo: &str, defender: bool) -> toml::Table {
+    let mut t = toml::Table::new();
+    if !defender {
+        return t;
+    }
+    let filter = toml::Table::try_from(defender::FilterOptions::keeps_learning()).unwrap_or_default();
+    let mut section = toml::Table::new();
+    section.insert("filter".into(), filter.into());
+    t.insert("defender".into(), section.into());
+    let mut agent = toml::Table::new();
+    agent.insert("demos_in_replay".into(), true.into());
+    if algo == "sac" {
+        agent.insert("bc_weight".into(), 1.0.into());
+        agent.insert("bc_form".into(), "per-row".into());
+    }
+    t.insert(algo.into(), agent.into());
+    t
+}
+
 /// Fills the keys of `table` (a run configuration as written) that its profile sets and it
 /// leaves out; `given` is what the user gave (a key present there is never replaced).
 ///
@@ -72,12 +130,8 @@ impl Profile {
 pub fn expand(table: &mut toml::Table, given: &toml::Table) -> Result<()> {
     let profile = match given.get("profile").or_else(|| table.get("profile")) {
         None => return Ok(()),
-        Some(toml::Value::String(name)) => match name.as_str() {
-            "spec" => Profile::Spec,
-            "authors" => Profile::Authors,
-            other => bail!("profile = \"{other}\": unknown profile (expected \"spec\" or \"authors\")"),
-        },
-        Some(other) => bail!("profile = {other}: expected \"spec\" or \"authors\""),
+        Some(toml::Value::String(name)) => Profile::from_name(name)?,
+        Some(other) => bail!("profile = {other}: expected {KNOWN}"),
     };
     let algo = table.get("algo").and_then(toml::Value::as_str).unwrap_or("sac").to_string();
     let defender = table.contains_key("defender");
@@ -157,6 +211,49 @@ mod tests {
     }
 
     #[test]
+    fn the_keeps_learning_profile_sets_exactly_its_settings() {
+        let t = expanded("profile = \"keeps-learning\"\nalgo = \"sac\"\n[defender]\nstrategy = \"auto\"\n");
+        let sac = t["sac"].as_table().unwrap();
+        let keys: Vec<&str> = sac.keys().map(String::as_str).collect();
+        assert_eq!(keys, ["bc_form", "bc_weight", "demos_in_replay"]);
+        assert_eq!(sac["bc_form"].as_str(), Some("per-row"));
+        assert_eq!(sac["bc_weight"].as_float(), Some(1.0));
+        let defender = t["defender"].as_table().unwrap();
+        assert!(!defender.contains_key("cost"), "SPEC's cost");
+        assert_eq!(defender["filter"]["margin"].as_float(), Some(0.02));
+        assert_eq!(defender["filter"]["own_episodes"]["keep"].as_integer(), Some(50));
+        assert!(!defender["filter"].as_table().unwrap().contains_key("budget"));
+        // Bare SAC stays bare SAC: the yardstick the bar compares with.
+        let bare = expanded("profile = \"keeps-learning\"\nalgo = \"sac\"\n");
+        assert_eq!(bare.keys().map(String::as_str).collect::<Vec<_>>(), ["algo", "profile"]);
+        // TD3: the same filter and the demonstrations in its buffer; it has no cloning term.
+        let td3 = expanded(
+            "profile = \"keeps-learning\"\nalgo = \"td3\"\n[defender]\nstrategy = \"MinBoth/MinBoth\"\n",
+        );
+        let keys: Vec<&str> = td3["td3"].as_table().unwrap().keys().map(String::as_str).collect();
+        assert_eq!(keys, ["demos_in_replay"]);
+        assert_eq!(td3["defender"]["filter"]["margin"].as_float(), Some(0.02));
+        // What the configuration gives wins, leaf by leaf.
+        let given = expanded(
+            "profile = \"keeps-learning\"\nalgo = \"sac\"\n[sac]\nbc_weight = 0.5\n[defender]\nstrategy = \"auto\"\n\
+             [defender.filter]\nmargin = 0.0\n[defender.filter.own_episodes]\nkeep = 7\n",
+        );
+        assert_eq!(given["sac"]["bc_weight"].as_float(), Some(0.5));
+        assert_eq!(given["sac"]["bc_form"].as_str(), Some("per-row"));
+        assert_eq!(given["defender"]["filter"]["margin"].as_float(), Some(0.0));
+        assert_eq!(given["defender"]["filter"]["own_episodes"]["keep"].as_integer(), Some(7));
+        // It parses into a run configuration that validates.
+        let config = crate::run_config::read_config_str(
+            "profile = \"keeps-learning\"\nenv = \"Hopper-v5\"\nalgo = \"sac\"\ntotal_steps = 1000\n\
+             [defender]\nstrategy = \"MeanBothW5/MeanBothW5\"\n",
+        )
+        .unwrap();
+        config.validate().unwrap();
+        assert_eq!(config.profile, Profile::KeepsLearning);
+        assert_eq!(config.defender.unwrap().filter.own_episodes.map(|o| o.keep), Some(50));
+    }
+
+    #[test]
     fn given_keys_win_and_spec_changes_nothing() {
         let t = expanded(
             "profile = \"authors\"\nalgo = \"sac\"\n[sac]\nbc_weight = 0.0\ndemos_in_replay = false\n\
@@ -170,6 +267,6 @@ mod tests {
         assert!(!spec.contains_key("sac"));
         let given: toml::Table = toml::from_str("profile = \"paper\"").unwrap();
         let err = expand(&mut given.clone(), &given).unwrap_err().to_string();
-        assert!(err.contains("unknown profile"), "{err}");
+        assert!(err.contains("unknown profile") && err.contains("\"keeps-learning\""), "{err}");
     }
 }

@@ -97,6 +97,27 @@ fn derive_seed(seed: u64, purpose: &str, index: u64) -> PyResult<u64> {
     Ok(defender_rl::derive_seed(seed, p, index))
 }
 
+/// `profile_filter(name)`: the `[defender.filter]` settings (JSON) a profile gives a DEFENDER
+/// run (`DefenderWrapper(profile=...)`), from the same definition `defender train --profile`
+/// uses; `{}` for `spec`. `authors` changes the cost, which the wrapper does not take.
+#[pyfunction]
+fn profile_filter(name: &str) -> PyResult<String> {
+    let filter = match name {
+        "spec" => defender::FilterOptions::default(),
+        "keeps-learning" => defender::FilterOptions::keeps_learning(),
+        other => {
+            return Err(DefenderError::new_err(format!(
+                "profile = '{other}': the wrapper knows 'spec' and 'keeps-learning' (the authors' profile \
+                 changes the DTW cost and the learner: `defender train --profile authors`)"
+            )));
+        }
+    };
+    if filter.is_spec() {
+        return Ok("{}".into());
+    }
+    serde_json::to_string(&filter).map_err(|e| DefenderError::new_err(e.to_string()))
+}
+
 /// The extension module.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -113,6 +134,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(costs::strategies, m)?)?;
     m.add_function(wrap_pyfunction!(select::select_strategies, m)?)?;
     m.add_function(wrap_pyfunction!(derive_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(profile_filter, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -158,7 +158,7 @@ impl AdaptiveFilter {
     /// Writes what changed since construction into `dir` (at an episode boundary; nothing without
     /// precision options): the margin,
     /// and the own episodes as an episode set (`own_episodes.npz`, safe ones first, each group
-    /// oldest first).
+    /// oldest first; no file before the first one joins, as an episode set is never empty).
     ///
     /// # Errors
     /// An I/O error naming the file.
@@ -172,7 +172,7 @@ impl AdaptiveFilter {
         crate::atomic::write_atomic(&path, |w| {
             std::io::Write::write_all(w, &text).map_err(|e| DefenderError::io(&path, e))
         })?;
-        if self.options.own_episodes.is_some() {
+        if self.options.own_episodes.is_some() && self.own.iter().any(|g| !g.is_empty()) {
             let mut all = EpisodeSet::new(self.base.obs_dim(), self.base.act_dim(), Meta::default())?;
             for set in self.own.iter().flatten() {
                 let e = set.episode(0);
@@ -204,7 +204,9 @@ impl AdaptiveFilter {
             )));
         }
         self.own = [VecDeque::new(), VecDeque::new()];
-        if let Some(own) = self.options.own_episodes {
+        if let Some(own) = self.options.own_episodes
+            && dir.join(OWN_FILE).exists()
+        {
             let all = EpisodeSet::load(dir.join(OWN_FILE))?;
             for e in all.episodes() {
                 let mut set = EpisodeSet::new(all.obs_dim(), all.act_dim(), Meta::default())?;

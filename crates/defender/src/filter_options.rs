@@ -63,6 +63,13 @@ pub struct OwnEpisodes {
 }
 
 impl FilterOptions {
+    /// The filter of `profile = "keeps-learning"` (docs/SPEC.md, section 11), chosen by the
+    /// screen of docs/results-keeps-learning.md and fixed before its runs: a margin of 0.02 and
+    /// the agent's own episodes joining the demonstrations, 50 per group.
+    pub fn keeps_learning() -> Self {
+        Self { margin: 0.02, budget: None, own_episodes: Some(OwnEpisodes { keep: 50 }) }
+    }
+
     /// True when nothing differs from SPEC section 4's filter.
     pub fn is_spec(&self) -> bool {
         *self == Self::default()

@@ -135,6 +135,23 @@ fn every_variant_resumes_from_a_checkpoint_bit_for_bit() {
 }
 
 #[test]
+fn a_checkpoint_before_any_own_episode_resumes() {
+    // A stop in the first episodes (Ctrl-C, or a short run whose every episode was filtered):
+    // no own episode has joined yet, and the checkpoint must still load.
+    let options =
+        FilterOptions { margin: 0.02, own_episodes: Some(OwnEpisodes { keep: 3 }), ..Default::default() };
+    let mut first = env(options);
+    assert_eq!(run_right(&mut first, 1.0).0, Outcome::Filtered);
+    assert_eq!(first.adaptive_filter().own_counts(), (0, 0));
+    let dir = tempfile::tempdir().unwrap();
+    first.save_state(dir.path()).unwrap();
+    let mut resumed = env(options);
+    resumed.load_state(dir.path()).unwrap();
+    assert_eq!(resumed.adaptive_filter().own_counts(), (0, 0));
+    assert_eq!(play(&mut resumed, 0..6), play(&mut first, 0..6));
+}
+
+#[test]
 fn bad_settings_are_refused_naming_the_setting() {
     let bad = |filter: FilterOptions| {
         let cfg = DefenderConfig { filter, ..config("MinBothW5/MinBothW5") };

@@ -65,7 +65,8 @@ pub struct AblateArgs {
     /// diversity).
     #[arg(long)]
     pub num_demos: Option<usize>,
-    /// spec (SPEC section 7, the default) or authors: their cost, score and episodes (above).
+    /// spec (SPEC section 7, the default) or authors: their cost, score and episodes (above);
+    /// keeps-learning ranks as spec (it changes a run's filter decision and learner, not the cost).
     #[arg(long, value_enum, default_value = "spec")]
     pub profile: Profile,
     /// With --profile authors: episodes shorter than this count as crashed [default: the task's
@@ -94,7 +95,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
     if !args.combine.is_empty() {
         return combine(&args);
     }
-    if args.profile == Profile::Spec && args.horizon.is_some() {
+    if args.profile != Profile::Authors && args.horizon.is_some() {
         bail!("--horizon is for --profile authors (SPEC section 7 reads the recorded `crashed` flags)");
     }
     if args.profile == Profile::Authors && args.demos.len() > 1 {
@@ -125,7 +126,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
         let mut demos = EpisodeSet::load(demos_path)?;
         let mut episodes = EpisodeSet::load(episodes_path)?;
         let options = match args.profile {
-            Profile::Spec => {
+            Profile::Spec | Profile::KeepsLearning => {
                 if let Some(n) = args.num_demos {
                     demos = demos.select_demos(n)?;
                 }

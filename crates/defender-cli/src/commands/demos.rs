@@ -49,7 +49,8 @@ pub struct CollectArgs {
     /// Gymnasium id of the task.
     #[arg(long)]
     pub env: String,
-    /// spec (the default rule above) or authors: their SAC, interval, grouping and order.
+    /// spec (the default rule above) or authors: their SAC, interval, grouping and order;
+    /// keeps-learning collects as spec (it changes how a run filters and learns, not the demos).
     #[arg(long, value_enum, default_value = "spec")]
     pub profile: Profile,
     /// Safe demonstrations to keep [default: 50] (not with --profile authors: it keeps all).
@@ -91,7 +92,7 @@ pub struct CollectArgs {
 pub fn run(cmd: DemosCommand) -> Result<()> {
     match cmd {
         DemosCommand::Collect(args) => match args.profile {
-            Profile::Spec => collect(&args),
+            Profile::Spec | Profile::KeepsLearning => collect(&args),
             Profile::Authors => super::demos_authors::collect(&args),
         },
     }

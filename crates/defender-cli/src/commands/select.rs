@@ -78,7 +78,8 @@ pub struct SelectArgs {
     pub scaling: String,
     /// spec (SPEC section 2's exact DTW, the default) or authors: rank under the cost of the
     /// authors' code (FastDTW L1 over the last 20 steps, one element per transition, ties
-    /// executed: docs/SPEC.md, section 10), as an authors-profile run would filter.
+    /// executed: docs/SPEC.md, section 10), as an authors-profile run would filter;
+    /// keeps-learning ranks as spec (its runs compare with SPEC's cost).
     #[arg(long, value_enum, default_value = "spec")]
     pub profile: Profile,
     /// Rows to print.
@@ -109,10 +110,7 @@ pub fn run(args: SelectArgs) -> Result<()> {
             } else {
                 vec![args.scaling.parse()?]
             };
-            let base = match args.profile {
-                Profile::Spec => defender::CostOptions::default(),
-                Profile::Authors => defender::CostOptions::authors(),
-            };
+            let base = args.profile.cost_options();
             scalings.into_iter().map(|scaling| defender::CostOptions { scaling, ..base }).collect()
         },
     };

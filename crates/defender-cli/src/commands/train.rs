@@ -107,10 +107,13 @@ pub struct TrainArgs {
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// spec (SPEC.md, the default) or authors: every setting in which the authors' code differs
+    /// spec (SPEC.md, the default); authors: every setting in which the authors' code differs
     /// (FastDTW L1 over the last 20 steps, ties executed, demonstrations in the replay buffer
     /// with a behaviour-cloning term, SAC without warm-up at alpha 0.5, episode ends terminal;
-    /// docs/SPEC.md). Keys the configuration gives win; config.toml lists every setting.
+    /// docs/SPEC.md); keeps-learning: a DEFENDER run filters with a margin of 0.02 and its own
+    /// episodes joining the demonstrations (50 per group), and its agent also learns from the
+    /// demonstrations (replay buffer, SAC with per-row cloning; docs/results-keeps-learning.md).
+    /// Keys the configuration and flags give win; config.toml lists every setting.
     #[arg(long, value_enum)]
     pub profile: Option<defender_config::profile::Profile>,
     /// Save the training episodes as an episode set (.npz) for `defender ablate`.
@@ -174,10 +177,38 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     if let Some(profile) = args.profile {
         given.insert("profile".into(), profile.name().into());
     }
+    given_by_flags(&mut given, args);
     let written = toml::Table::try_from(&config)?;
     let config = with_profile(&written, &given)?;
     config.validate()?;
     Ok(config)
+}
+
+/// Marks the settings that flags give as given, so that a profile fills around them and never
+/// replaces them (`--margin 0` under `keeps-learning` is SPEC's decision rule).
+fn given_by_flags(given: &mut toml::Table, args: &TrainArgs) {
+    let mut filter = toml::Table::new();
+    if let Some(m) = args.margin {
+        filter.insert("margin".into(), m.into());
+    }
+    if args.filter_budget.is_some() {
+        filter.insert("budget".into(), toml::Table::new().into());
+    }
+    if let Some(keep) = args.own_episodes {
+        let mut own = toml::Table::new();
+        own.insert("keep".into(), i64::try_from(keep).unwrap_or(i64::MAX).into());
+        filter.insert("own_episodes".into(), own.into());
+    }
+    if filter.is_empty() {
+        return;
+    }
+    let section = given.entry("defender").or_insert_with(|| toml::Table::new().into());
+    if let Some(section) = section.as_table_mut() {
+        let into = section.entry("filter").or_insert_with(|| toml::Table::new().into());
+        if let Some(into) = into.as_table_mut() {
+            into.extend(filter);
+        }
+    }
 }
 
 /// A `--config` file with the keys it leaves out that flags give (`env` from `--env`, `algo`

@@ -1,0 +1,78 @@
+//! `--profile keeps-learning` on the command line: what a run's `config.toml` says it ran with,
+//! that the record trains the same run again, that the flags a user gives win over the profile,
+//! and that a bare run stays bare.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::Path;
+use std::process::Command;
+
+/// `defender train` on IDP for 300 steps with `args`; the run's `config.toml`.
+fn train(args: &[&str]) -> toml::Table {
+    train_with(&[&["--env", "InvertedDoublePendulum-v5", "--steps", "300", "--seed", "1"][..], args].concat())
+}
+
+fn train_with(args: &[&str]) -> toml::Table {
+    let out = Command::new(env!("CARGO_BIN_EXE_defender"))
+        .env("DEFENDER_NN_THREADS", "1")
+        .arg("train")
+        .args(args)
+        .output()
+        .expect("run defender");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "defender train {args:?} failed:\n{text}");
+    let dir = args.iter().position(|a| *a == "--out").map(|i| args[i + 1]).unwrap();
+    toml::from_str(&std::fs::read_to_string(Path::new(dir).join("config.toml")).unwrap()).unwrap()
+}
+
+#[test]
+fn keeps_learning_fills_what_the_flags_leave_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("filtered");
+    let out = out.to_str().unwrap();
+    let strategy = ["--strategy", "MinBothW5/MinBothW5"];
+    let config = train(&[&["--profile", "keeps-learning", "--out", out][..], &strategy].concat());
+    assert_eq!(config["profile"].as_str(), Some("keeps-learning"));
+    let filter = &config["defender"]["filter"];
+    assert_eq!(filter["margin"].as_float(), Some(0.02));
+    assert_eq!(filter["own_episodes"]["keep"].as_integer(), Some(50));
+    assert_eq!(config["sac"]["demos_in_replay"].as_bool(), Some(true));
+    assert_eq!(config["sac"]["bc_weight"].as_float(), Some(1.0));
+    assert_eq!(config["sac"]["bc_form"].as_str(), Some("per-row"));
+    // SPEC's cost: the profile changes the decision and the learner only.
+    assert_eq!(config["defender"]["cost"]["dtw"].as_str(), Some("exact"));
+
+    // The record trains the same run again (a reader's `--config <run>/config.toml`).
+    let again = dir.path().join("again");
+    let record = Path::new(out).join("config.toml");
+    let copy = train_with(&["--config", record.to_str().unwrap(), "--out", again.to_str().unwrap()]);
+    assert_eq!(copy, config);
+
+    // Flags win over the profile, leaf by leaf.
+    let own = dir.path().join("own");
+    let config = train(
+        &[
+            &[
+                "--profile",
+                "keeps-learning",
+                "--margin",
+                "0",
+                "--own-episodes",
+                "5",
+                "--out",
+                own.to_str().unwrap(),
+            ][..],
+            &strategy,
+        ]
+        .concat(),
+    );
+    assert_eq!(config["defender"]["filter"]["margin"].as_float(), Some(0.0));
+    assert_eq!(config["defender"]["filter"]["own_episodes"]["keep"].as_integer(), Some(5));
+    assert_eq!(config["sac"]["bc_form"].as_str(), Some("per-row"));
+
+    // Bare SAC stays bare SAC (the yardstick): no demonstrations, no cloning.
+    let bare = dir.path().join("bare");
+    let config = train(&["--profile", "keeps-learning", "--out", bare.to_str().unwrap()]);
+    assert!(!config.contains_key("defender"));
+    assert_eq!(config["sac"]["demos_in_replay"].as_bool(), Some(false));
+    assert_eq!(config["sac"]["bc_weight"].as_float(), Some(0.0));
+}
