@@ -11,7 +11,9 @@ RUN_DIR=${1:-runs/main}
 ENV_ID=${ENV_ID:-InvertedDoublePendulum-v5}
 STEPS=${STEPS:-15000}
 SEED=${SEED:-0}
-STRATEGY=${STRATEGY:-MinDemoW5/MinDemoW10}
+# auto: chosen from the demonstrations before training (`defender select`), as in the runs that
+# chose the default profile, keeps-learning (docs/results-keeps-learning.md).
+STRATEGY=${STRATEGY:-auto}
 EVAL_FREQ=${EVAL_FREQ:-2500}
 
 echo "== building defender (release) =="

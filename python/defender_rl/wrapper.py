@@ -180,7 +180,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             separates safe from unsafe demonstrations far better: docs/decisions.md).
 
         filter: the filter's precision options, as ``[defender.filter]`` of a run's configuration
-            (all off by default, SPEC's filter): ``{"margin": m}`` filters only when
+            (over ``profile``'s): ``{"margin": m}`` filters only when
             ``Unsafe <= (1 - m) * Safe``; ``{"budget": {"share": s, "episodes": n}}`` adapts the
             margin after every episode towards a share ``s`` of filtered episodes (time constant
             ``n`` episodes, default 100); ``{"own_episodes": {"keep": k}}`` lets the agent's own
@@ -188,9 +188,10 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             the horizon the safe one; at most ``k`` per group, the oldest replaced). The margin
             and own-episode counts in use are in :attr:`filter_state`. Keys given here win over
             ``profile``'s.
-        profile: ``"spec"`` (SPEC's filter unless ``filter`` says otherwise) or
-            ``"keeps-learning"``: the filter of ``defender train --profile keeps-learning``
-            (``{"margin": 0.02, "own_episodes": {"keep": 50}}``; docs/SPEC.md, section 11). That
+        profile: ``"keeps-learning"`` (the default): the filter of ``defender train``'s default
+            profile (``{"margin": 0.02, "own_episodes": {"keep": 50}}``; docs/SPEC.md, section
+            11); ``"spec"``: SPEC's filter as the paper's text has it, unless ``filter`` says
+            otherwise. That
             profile's other half is the learner's, which a wrapper cannot change: the runs that
             held the bar also put every demonstration transition into SAC's replay buffer and
             added a behaviour-cloning term (docs/results-keeps-learning.md); the filter alone
@@ -227,7 +228,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         scaling: str | None = None,
         check_finite: bool = True,
         filter: Mapping[str, Any] | None = None,  # noqa: A002 (the [defender.filter] section's name)
-        profile: str = "spec",
+        profile: str = "keeps-learning",
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")

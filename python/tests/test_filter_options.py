@@ -24,7 +24,7 @@ def full_throttle_episodes(env, episodes):
 
 
 def test_a_budget_raises_the_margin_after_filtered_episodes(drift_set):
-    env = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1,
+    env = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="spec",
                           filter={"budget": {"share": 0.1, "episodes": 10}})
     assert env.filter_state == {"margin": 0.0, "own_safe": 0, "own_unsafe": 0}
     outcomes = full_throttle_episodes(env, 3)
@@ -32,7 +32,7 @@ def test_a_budget_raises_the_margin_after_filtered_episodes(drift_set):
     assert filtered > 0, outcomes
     # Each filtered episode adds (1 - 0.1) / 10, each other one takes 0.1 / 10 (floored at 0).
     assert env.filter_state["margin"] > 0.0
-    plain = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1)
+    plain = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="spec")
     full_throttle_episodes(plain, 3)
     assert plain.filter_state["margin"] == 0.0
 
@@ -67,15 +67,15 @@ def test_bad_filter_values_are_named(drift_set, bad, exc, words):
 
 
 def test_the_keeps_learning_profile_gives_its_filter_and_filter_wins(drift_set):
-    env = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="keeps-learning")
-    assert env.profile == "keeps-learning"
+    env = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1)
+    assert env.profile == "keeps-learning", "the default profile"
     assert env.filter_state == {"margin": 0.02, "own_safe": 0, "own_unsafe": 0}
     outcomes = full_throttle_episodes(env, 4)
     assert env.filter_state["own_unsafe"] == min(outcomes.count("crashed"), 50)
     over = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="keeps-learning",
                            filter={"margin": 0.5})
     assert over.filter_state["margin"] == 0.5
-    spec = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1)
+    spec = DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", seed=1, profile="spec")
     assert spec.profile == "spec" and spec.filter_state["margin"] == 0.0
 
 

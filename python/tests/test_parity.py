@@ -86,7 +86,8 @@ def test_python_wrapper_and_rust_defender_env_agree(strategy, tmp_path):
         tmp_path,
     )
 
-    env = DefenderWrapper(ResetToState(gym.make("Hopper-v5"), states), HOPPER_DEMOS, strategy, seed=SEED, dynamics=dynamics)
+    env = DefenderWrapper(ResetToState(gym.make("Hopper-v5"), states), HOPPER_DEMOS, strategy, seed=SEED, dynamics=dynamics,
+                          profile="spec")  # the Rust trace's DefenderConfig: SPEC's filter
     assert env.r_task == rust["r_task"]
     counts = {"filtered": 0, "executed": 0, "filtered_after_training": 0}
     for k, (ep, rep) in enumerate(zip(episodes, rust["episodes"])):

@@ -44,7 +44,8 @@ def run_episode(env, policy, seed):
 
 def test_filtered_step_is_not_executed_and_returns_the_prediction(drift_set):
     inner = DriftEnv()
-    env = DefenderWrapper(inner, drift_set, "MinBoth/MinBoth", seed=1)
+    # SPEC's decision rule (Safe >= Unsafe filters), checked below step by step.
+    env = DefenderWrapper(inner, drift_set, "MinBoth/MinBoth", seed=1, profile="spec")
     assert env.r_task == pytest.approx(float(drift_set.min_reward))
     saw_filtered = saw_executed = False
     for ep in range(20):

@@ -76,3 +76,22 @@ fn keeps_learning_fills_what_the_flags_leave_out() {
     assert_eq!(config["sac"]["demos_in_replay"].as_bool(), Some(false));
     assert_eq!(config["sac"]["bc_weight"].as_float(), Some(0.0));
 }
+
+#[test]
+fn a_new_run_takes_keeps_learning_and_spec_is_one_word_away() {
+    let dir = tempfile::tempdir().unwrap();
+    let strategy = ["--strategy", "MinBothW5/MinBothW5"];
+    let new = dir.path().join("new");
+    let config = train(&[&["--out", new.to_str().unwrap()][..], &strategy].concat());
+    assert_eq!(config["profile"].as_str(), Some("keeps-learning"));
+    assert_eq!(config["defender"]["filter"]["margin"].as_float(), Some(0.02));
+    assert_eq!(config["sac"]["bc_form"].as_str(), Some("per-row"));
+
+    // SPEC's behaviour is one word away, and its record says so (a record is read with the
+    // profile it names, never with the default for new runs).
+    let spec = dir.path().join("spec");
+    let config = train(&[&["--profile", "spec", "--out", spec.to_str().unwrap()][..], &strategy].concat());
+    assert_eq!(config["profile"].as_str(), Some("spec"));
+    assert!(!config["defender"].as_table().unwrap().contains_key("filter"), "SPEC's filter: {config:?}");
+    assert_eq!(config["sac"]["demos_in_replay"].as_bool(), Some(false));
+}

@@ -162,8 +162,12 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
         std::fs::read_to_string(&csv).unwrap().lines().nth(1).unwrap().split(',').nth(5).unwrap().to_string();
 
     let run = dir.path().join("run");
+    // SPEC's profile: the report row below is plain SAC's (the default profile's agent also
+    // learns from the demonstrations, a row of its own).
     let args = [
         "train",
+        "--profile",
+        "spec",
         "--env",
         ENV_ID,
         "--strategy",

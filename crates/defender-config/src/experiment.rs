@@ -433,6 +433,7 @@ fn run_config(
     (total_steps, total_episodes): (u64, u64),
 ) -> Result<RunConfig> {
     let mut table = shared.clone().unwrap_or_default();
+    crate::profile::default_for_new_run(&mut table);
     for key in ["env", "algo", "seed", "total_steps", "total_episodes"] {
         if table.contains_key(key) {
             bail!("[run] may not set '{key}': the grid and the budget set it");
@@ -511,6 +512,25 @@ learning_starts = 50
         assert_eq!(d.mode, defender::Mode::State);
         let idp = &e.runs[0].config;
         assert_eq!((idp.total_steps, idp.defender.is_none()), (1000, true));
+    }
+
+    #[test]
+    fn new_runs_take_the_default_profile_unless_the_file_names_one() {
+        use crate::profile::Profile;
+        let e = parse(GRID, TASKS).unwrap();
+        let hopper = e.runs.iter().find(|r| r.name == "Hopper-v5/sac-MeanDemoW5-MeanDemoW10-s1").unwrap();
+        assert_eq!(hopper.config.profile, Profile::KeepsLearning);
+        let d = hopper.config.defender.as_ref().unwrap();
+        assert_eq!((d.filter.margin, d.filter.own_episodes.map(|o| o.keep)), (0.02, Some(50)));
+        assert!(hopper.config.sac.as_ref().unwrap().demos_in_replay);
+        // Bare SAC stays bare SAC.
+        let bare = &e.runs[0].config;
+        assert!(bare.defender.is_none() && !bare.sac.as_ref().unwrap().demos_in_replay);
+        let spec = parse(&GRID.replace("[run]\n", "[run]\nprofile = \"spec\"\n"), TASKS).unwrap();
+        let hopper = spec.runs.iter().find(|r| r.name == "Hopper-v5/sac-MeanDemoW5-MeanDemoW10-s1").unwrap();
+        assert_eq!(hopper.config.profile, Profile::Spec);
+        assert!(hopper.config.defender.as_ref().unwrap().filter.is_spec());
+        assert!(!hopper.config.sac.as_ref().unwrap().demos_in_replay);
     }
 
     #[test]

@@ -122,6 +122,21 @@ fn keeps_learning(algo: &str, defender: bool) -> toml::Table {
     t
 }
 
+/// The profile of a new run whose request names none (`defender train` and its `--config` file,
+/// an experiment's runs, `DefenderWrapper`): `keeps-learning`, chosen by issue 24's runs
+/// (docs/decisions.md, "The default filter"). A run's record (`config.toml`) is read with the
+/// profile it names, and one that names none was written before profiles existed and ran SPEC's
+/// behaviour, so records do not take this default (`RunConfig`'s `profile` defaults to `spec`).
+pub const NEW_RUN_DEFAULT: Profile = Profile::KeepsLearning;
+
+/// Gives a new run's request (`given`, what the user wrote) the default profile when it names
+/// none.
+pub fn default_for_new_run(given: &mut toml::Table) {
+    if !given.contains_key("profile") {
+        given.insert("profile".into(), NEW_RUN_DEFAULT.name().into());
+    }
+}
+
 /// Fills the keys of `table` (a run configuration as written) that its profile sets and it
 /// leaves out; `given` is what the user gave (a key present there is never replaced).
 ///

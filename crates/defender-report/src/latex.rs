@@ -91,7 +91,7 @@ pub(crate) fn latex(table: &Table) -> String {
                         let _ = write!(
                             out,
                             "\\multicolumn{{{labels}}}{{l}}{{{}}}",
-                            tex_escape(&algo.to_uppercase())
+                            tex_escape(&crate::run::algo_display(algo))
                         );
                     }
                     Some(f) => {

@@ -57,7 +57,7 @@ pub(crate) fn markdown(table: &Table) -> String {
                     .filter
                     .as_ref()
                     .map_or(("-".to_string(), "-"), |f: &DefenderSettings| (f.safe_cell(), f.unsafe_()));
-                let mut line = vec![row.algo.to_uppercase(), safe, unsafe_.to_string()];
+                let mut line = vec![crate::run::algo_display(&row.algo), safe, unsafe_.to_string()];
                 if demos {
                     line.push(demos_text(row));
                 }

@@ -120,7 +120,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let demos: BTreeSet<_> = by_filter.keys().flatten().map(|f| f.num_demos).collect();
         let label = |filter: Option<&DefenderSettings>, seeds: usize| {
             let mut text = match filter {
-                None => format!("{} (bare)", algo.to_uppercase()),
+                None => format!("{} (bare)", crate::run::algo_display(algo)),
                 Some(f) => f.name(),
             };
             if let Some(f) = filter {
@@ -204,7 +204,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 bands,
             };
             let figure = windows::Windows {
-                title: format!("{env}, {}, {budget}: crash rate and evaluation return", algo.to_uppercase()),
+                title: format!("{env}, {}, {budget}: crash rate and evaluation return", crate::run::algo_display(algo)),
                 crash,
                 eval,
             };
@@ -219,7 +219,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             })
             .collect();
         let figure = tradeoff::Tradeoff::new(
-            format!("{env}, {}, {budget}: final results", algo.to_uppercase()),
+            format!("{env}, {}, {budget}: final results", crate::run::algo_display(algo)),
             points,
         );
         plots.files.extend(write_figure(
@@ -237,7 +237,7 @@ fn title(env: &str, algo: &str, budget: Budget, kind: PlotKind) -> String {
         PlotKind::CrashRate => "cumulative crash rate",
         PlotKind::Evaluation => "evaluation return",
     };
-    format!("{env}, {}, {budget}: {what}", algo.to_uppercase())
+    format!("{env}, {}, {budget}: {what}", crate::run::algo_display(algo))
 }
 
 fn y_label(kind: PlotKind, options: &PlotOptions) -> String {

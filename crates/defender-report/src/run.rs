@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use defender::{Mode, Strategy};
+use defender::{FilterOptions, Mode, Strategy};
 use defender_rl::{Algo, Budget, Outcome};
 use serde::{Deserialize, Serialize};
 
@@ -500,24 +500,43 @@ struct RawAgent {
     bc_weight: Option<f64>,
 }
 
-/// The algorithm as a report row names it: `sac`, or with what sets the run apart from SPEC's
-/// agent in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac (authors, no demos)`), so
-/// that the arms of an experiment (docs/experiments.md) form rows of their own.
+/// A row's algorithm label as tables and plots print it: the algorithm in capitals, what sets
+/// the run apart as written (`SAC (demos+BC, margin0.02+own50)`).
+pub fn algo_display(label: &str) -> String {
+    match label.split_once(' ') {
+        Some((algo, rest)) => format!("{} {rest}", algo.to_uppercase()),
+        None => label.to_uppercase(),
+    }
+}
+
+/// The algorithm as a report row names it: `sac`, or with what sets the run apart from its
+/// profile's agent and filter in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac
+/// (authors, no demos)`, `sac (keeps-learning)`, `sac (demos+BC, margin0.02+own50)`), so that the
+/// arms of an experiment (docs/experiments.md) form rows of their own, and runs whose filters
+/// decide differently never share a row.
 fn algo_label(raw: &RawConfig) -> String {
-    let authors = raw.profile.as_deref() == Some("authors");
+    let profile = raw.profile.as_deref().unwrap_or("spec");
     let agent = raw.sac.as_ref().or(raw.td3.as_ref());
     let demos = agent.and_then(|a| a.demos_in_replay).unwrap_or(false);
     let bc = agent.and_then(|a| a.bc_weight).is_some_and(|w| w > 0.0);
-    let mut tags: Vec<&str> = Vec::new();
-    if authors {
-        tags.push("authors");
+    let mut tags: Vec<String> = Vec::new();
+    if profile != "spec" {
+        tags.push(profile.to_string());
     }
-    // The profile gives a DEFENDER run the demonstrations; anything else is worth naming.
-    let expected = authors && raw.defender.is_some();
+    // The authors' and keeps-learning profiles give a DEFENDER run the demonstrations; anything
+    // else is worth naming.
+    let expected = profile != "spec" && raw.defender.is_some();
     match (demos, expected) {
-        (true, false) => tags.push(if bc { "demos+BC" } else { "demos" }),
-        (false, true) => tags.push("no demos"),
+        (true, false) => tags.push(if bc { "demos+BC" } else { "demos" }.into()),
+        (false, true) => tags.push("no demos".into()),
         _ => {}
+    }
+    if let Some(d) = &raw.defender {
+        let expected =
+            if profile == "keeps-learning" { FilterOptions::keeps_learning() } else { FilterOptions::default() };
+        if d.filter != expected {
+            tags.push(d.filter.label());
+        }
     }
     if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
 }
@@ -530,6 +549,8 @@ struct RawDefender {
     selection: Option<toml::Table>,
     #[serde(default)]
     cost: RawCost,
+    #[serde(default)]
+    filter: FilterOptions,
 }
 
 #[derive(Deserialize, Default)]

@@ -51,7 +51,7 @@ impl Row {
     /// `Hopper-v5 SAC (400 steps)`, or `Hopper-v5 SAC MeanDemoW5/MeanDemoW10 (state, 400 steps)`:
     /// for notes and warnings.
     pub fn label(&self) -> String {
-        let algo = self.algo.to_uppercase();
+        let algo = crate::run::algo_display(&self.algo);
         match &self.filter {
             None => format!("{} {algo} ({})", self.env, self.budget),
             Some(f) => format!("{} {algo} {} ({}, {})", self.env, f.name(), f.mode, self.budget),

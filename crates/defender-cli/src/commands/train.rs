@@ -107,13 +107,14 @@ pub struct TrainArgs {
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// spec (SPEC.md, the default); authors: every setting in which the authors' code differs
-    /// (FastDTW L1 over the last 20 steps, ties executed, demonstrations in the replay buffer
-    /// with a behaviour-cloning term, SAC without warm-up at alpha 0.5, episode ends terminal;
-    /// docs/SPEC.md); keeps-learning: a DEFENDER run filters with a margin of 0.02 and its own
+    /// keeps-learning [the default]: a DEFENDER run filters with a margin of 0.02 and its own
     /// episodes joining the demonstrations (50 per group), and its agent also learns from the
-    /// demonstrations (replay buffer, SAC with per-row cloning; docs/results-keeps-learning.md).
-    /// Keys the configuration and flags give win; config.toml lists every setting.
+    /// demonstrations (replay buffer, SAC with per-row cloning; docs/results-keeps-learning.md);
+    /// a bare run is plain SAC/TD3. spec: SPEC.md, the paper's text as written. authors: every
+    /// setting in which the authors' code differs (FastDTW L1 over the last 20 steps, ties
+    /// executed, demonstrations in the replay buffer with a behaviour-cloning term, SAC without
+    /// warm-up at alpha 0.5, episode ends terminal; docs/SPEC.md). Keys the configuration and
+    /// flags give win; config.toml lists every setting.
     #[arg(long, value_enum)]
     pub profile: Option<defender_config::profile::Profile>,
     /// Save the training episodes as an episode set (.npz) for `defender ablate`.
@@ -178,6 +179,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
         given.insert("profile".into(), profile.name().into());
     }
     given_by_flags(&mut given, args);
+    defender_config::profile::default_for_new_run(&mut given);
     let written = toml::Table::try_from(&config)?;
     let config = with_profile(&written, &given)?;
     config.validate()?;
@@ -438,11 +440,13 @@ pub fn run(args: TrainArgs) -> Result<()> {
 fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
     let path = args.out.join("config.toml");
     let saved = read_config(&path).with_context(|| format!("--resume needs {}", path.display()))?;
-    let base = match &args.config {
-        Some(file) => read_partial_config(file, args)?,
-        None => saved.clone(),
-    };
-    let requested = apply_flags(base, args)?.keeping_automatic_choice_of(&saved);
+    // A `--config` file is read as a new run's request is (its profile, or the default for new
+    // runs, filling what it leaves out), so that the file the run started from resumes it.
+    let requested = match &args.config {
+        Some(_) => resolve(args)?,
+        None => apply_flags(saved.clone(), args)?,
+    }
+    .keeping_automatic_choice_of(&saved);
     resume::refuse_changes(&args.out, &saved, &requested)?;
     let mut config = saved;
     config.total_steps = requested.total_steps;
