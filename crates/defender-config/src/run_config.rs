@@ -15,8 +15,10 @@ use crate::profile::Profile;
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunConfig {
-    /// `spec` (SPEC.md, the default) or `authors` (the authors' code; it fills every setting it
-    /// changes that the configuration leaves out: `crate::profile`).
+    /// `spec` (SPEC.md), `authors` (the authors' code) or `keeps-learning`; a profile fills every
+    /// setting it changes that the configuration leaves out (`crate::profile`). A new run's
+    /// request without one gets `profile::NEW_RUN_DEFAULT`; a record without one (written before
+    /// profiles existed) reads as `spec`, which it ran.
     #[serde(default)]
     pub profile: Profile,
     /// Gymnasium id.
