@@ -204,7 +204,10 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 bands,
             };
             let figure = windows::Windows {
-                title: format!("{env}, {}, {budget}: crash rate and evaluation return", crate::run::algo_display(algo)),
+                title: format!(
+                    "{env}, {}, {budget}: crash rate and evaluation return",
+                    crate::run::algo_display(algo)
+                ),
                 crash,
                 eval,
             };

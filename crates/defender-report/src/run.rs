@@ -532,8 +532,11 @@ fn algo_label(raw: &RawConfig) -> String {
         _ => {}
     }
     if let Some(d) = &raw.defender {
-        let expected =
-            if profile == "keeps-learning" { FilterOptions::keeps_learning() } else { FilterOptions::default() };
+        let expected = if profile == "keeps-learning" {
+            FilterOptions::keeps_learning()
+        } else {
+            FilterOptions::default()
+        };
         if d.filter != expected {
             tags.push(d.filter.label());
         }
