@@ -1,5 +1,6 @@
 //! The filter's precision options (`[defender.filter]`): ways to cut its false alarms, all off by
-//! default, so that the filter of SPEC section 4 is what runs unless a configuration asks.
+//! default, so that the filter of SPEC section 4 is what runs unless a configuration asks (the
+//! `keeps-learning` profile, the default of new runs, asks for two: [`FilterOptions::keeps_learning`]).
 //!
 //! - `margin = m`: a step is filtered only when `Unsafe <= (1 - m) * Safe` (ties as
 //!   `[defender.cost] ties` says), i.e. the trajectory must be clearly closer to the unsafe group.
