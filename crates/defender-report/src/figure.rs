@@ -56,9 +56,18 @@ pub(crate) trait Figure {
         DB::ErrorType: 'static;
 }
 
+/// `base` with `.ext` appended: a base may hold dots of its own (`margin0.02`), which
+/// `Path::with_extension` would take for an extension and cut.
+fn with_suffix(base: &Path, ext: &str) -> PathBuf {
+    let mut name = base.as_os_str().to_owned();
+    name.push(".");
+    name.push(ext);
+    PathBuf::from(name)
+}
+
 /// Draws `figure` as `base.png` and `base.svg`, `w` x `h` pixels, each written atomically.
 pub(crate) fn write_figure(figure: &impl Figure, base: &Path, (w, h): (u32, u32)) -> Result<Vec<PathBuf>> {
-    let png_path = base.with_extension("png");
+    let png_path = with_suffix(base, "png");
     let plot_err = |path: &Path| {
         let path = path.to_path_buf();
         move |message: String| ReportError::Plot { path, message }
@@ -81,7 +90,7 @@ pub(crate) fn write_figure(figure: &impl Figure, base: &Path, (w, h): (u32, u32)
     }
     write_atomic(&png_path, &png_bytes)?;
 
-    let svg_path = base.with_extension("svg");
+    let svg_path = with_suffix(base, "svg");
     let mut svg = String::new();
     {
         let backend = SVGBackend::with_string(&mut svg, (w, h));
@@ -161,5 +170,12 @@ mod tests {
         assert_eq!(steps_label(20_000.0), "20k");
         assert_eq!(steps_label(1_500_000.0), "1.5M");
         assert_eq!(file_safe("Hopper-v5 (a/b)"), "Hopper-v5__a_b_");
+    }
+
+    #[test]
+    fn a_label_with_dots_keeps_all_of_it_before_the_extension() {
+        let base =
+            Path::new("plots").join(format!("{}_crash", file_safe("sac (demos+BC, margin0.02+own50)")));
+        assert_eq!(with_suffix(&base, "png"), Path::new("plots/sac__demos_BC__margin0.02_own50__crash.png"));
     }
 }

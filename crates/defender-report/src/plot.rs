@@ -95,14 +95,19 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
     let dir = dir.as_ref();
     register_font();
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    // One plot per task x algorithm (x budget); in it one curve per configuration: the row's
+    // label (what sets its agent and filter apart: `sac (demos+BC, margin0.02+own50)`) and its
+    // DEFENDER settings, bare runs first, so that the arms of an experiment are side by side.
     type Key<'a> = (&'a str, &'a str, Budget);
-    let mut groups: BTreeMap<Key<'_>, BTreeMap<Option<&DefenderSettings>, Vec<&Run>>> = BTreeMap::new();
+    type Curves<'a> = BTreeMap<(bool, &'a str, Option<&'a DefenderSettings>), Vec<&'a Run>>;
+    let mut groups: BTreeMap<Key<'_>, Curves<'_>> = BTreeMap::new();
     for run in runs {
         let c = &run.config;
+        let base = c.algo.split_once(' ').map_or(c.algo.as_str(), |(algo, _)| algo);
         groups
-            .entry((c.env.as_str(), c.algo.as_str(), c.budget))
+            .entry((c.env.as_str(), base, c.budget))
             .or_default()
-            .entry(c.filter.as_ref())
+            .entry((c.filter.is_some(), c.algo.as_str(), c.filter.as_ref()))
             .or_default()
             .push(run);
     }
@@ -116,12 +121,14 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         if budgets.get(&(*env, *algo)).copied().unwrap_or(0) > 1 {
             stem.push_str(&format!("_{}", file_safe(&budget.to_string())));
         }
-        let modes: BTreeSet<_> = by_filter.keys().flatten().map(|f| f.mode).collect();
-        let demos: BTreeSet<_> = by_filter.keys().flatten().map(|f| f.num_demos).collect();
-        let label = |filter: Option<&DefenderSettings>, seeds: usize| {
-            let mut text = match filter {
-                None => format!("{} (bare)", crate::run::algo_display(algo)),
-                Some(f) => f.name(),
+        let modes: BTreeSet<_> = by_filter.keys().filter_map(|k| k.2).map(|f| f.mode).collect();
+        let demos: BTreeSet<_> = by_filter.keys().filter_map(|k| k.2).map(|f| f.num_demos).collect();
+        let label = |(_, row, filter): (bool, &str, Option<&DefenderSettings>), seeds: usize| {
+            let tags = row.split_once(" (").map(|(_, t)| t.trim_end_matches(')'));
+            let mut text = match (filter, tags) {
+                (None, _) => format!("{} (bare)", crate::run::algo_display(row)),
+                (Some(f), None) => f.name(),
+                (Some(f), Some(tags)) => format!("{}, {tags}", f.name()),
             };
             if let Some(f) = filter {
                 if modes.len() > 1 {
@@ -134,21 +141,20 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             text.push_str(&format!(" [{seeds} seed{}]", if seeds == 1 { "" } else { "s" }));
             text
         };
-        // Colour i of the curves is the same strategy's colour in the trade-off.
-        let color_of = |i: usize, filter: Option<&DefenderSettings>| {
-            if filter.is_none() { 0 } else { i + usize::from(!by_filter.contains_key(&None)) }
-        };
+        // Colour i of the curves is the same configuration's colour in the trade-off; the first
+        // bare curve is black (colour 0), and without one the palette starts at 1.
+        let bare_first = by_filter.keys().next().is_some_and(|k| !k.0);
+        let color_of = |i: usize| i + usize::from(!bare_first);
         // One band per configuration of the curve `curve` gives each seed, on `grid`.
         let bands_of =
             |curve: &dyn Fn(&Run) -> Curve, grid: Grid, name: &str, why: &str, notes: &mut Vec<String>| {
                 let mut bands = Vec::new();
-                for (i, (filter, seeds)) in by_filter.iter().enumerate() {
+                for (i, (key, seeds)) in by_filter.iter().enumerate() {
                     let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r)).collect();
-                    let label = label(*filter, seeds.len());
+                    let label = label(*key, seeds.len());
                     match band(&curves, grid) {
-                        // BTreeMap order puts the bare run (None) first: colour 0.
                         Some((xs, mean, lo, hi)) => {
-                            bands.push(Band { label, color: color_of(i, *filter), xs, mean, lo, hi });
+                            bands.push(Band { label, color: color_of(i), xs, mean, lo, hi });
                         }
                         None => notes.push(format!("{stem}_{name}: {label}: {why}; not drawn")),
                     }
@@ -217,9 +223,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let points = by_filter
             .iter()
             .enumerate()
-            .map(|(i, (filter, seeds))| {
-                tradeoff::Point::of(label(*filter, seeds.len()), color_of(i, *filter), seeds)
-            })
+            .map(|(i, (key, seeds))| tradeoff::Point::of(label(*key, seeds.len()), color_of(i), seeds))
             .collect();
         let figure = tradeoff::Tradeoff::new(
             format!("{env}, {}, {budget}: final results", crate::run::algo_display(algo)),

@@ -105,8 +105,14 @@ impl Table {
             let seeds: Vec<u64> = group.iter().map(|r| r.config.seed).collect();
             let mut missing = BTreeSet::new();
             let mut ratios = Vec::new();
+            // The bare run of the same agent (`sac (authors)` for the authors' profile), else
+            // plain bare SAC or TD3 (an arm whose label names its filter options has no bare run
+            // of its own: its agent is the algorithm's).
+            let base = algo.split_once(' ').map_or(algo.as_str(), |(a, _)| a);
             for run in &group {
-                match bare.get(&(env.as_str(), algo.as_str(), budget, run.config.seed)) {
+                let seed = run.config.seed;
+                let own = bare.get(&(env.as_str(), algo.as_str(), budget, seed));
+                match own.or_else(|| bare.get(&(env.as_str(), base, budget, seed))) {
                     Some(bare_wall) => ratios.push(run.summary.wall_seconds / bare_wall * 100.0),
                     None => {
                         missing.insert(run.config.seed);

@@ -127,3 +127,34 @@ fn a_single_episode_run_is_drawn_with_markers() {
     let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_eval.svg")).unwrap();
     assert!(svg.contains("<circle"), "{svg}");
 }
+
+#[test]
+fn the_arms_of_an_experiment_share_one_plot_per_task() {
+    // Bare SAC, and the same strategy with the default profile's filter and learner: one set of
+    // files named for the algorithm, one curve each, labelled with what sets the arm apart.
+    let root = tempfile::tempdir().unwrap();
+    for seed in 0..2 {
+        RunSpec::new("sac", seed, None).outcomes(6, 5, 0).write(root.path());
+        let dir = RunSpec::new("sac", seed, A).outcomes(6, 1, 4).write(root.path());
+        let arm = root.path().join(format!("arm-s{seed}"));
+        std::fs::rename(&dir, &arm).unwrap();
+        let config = std::fs::read_to_string(arm.join("config.toml")).unwrap();
+        std::fs::write(
+            arm.join("config.toml"),
+            format!(
+                "profile = \"keeps-learning\"\n{config}\n[defender.filter]\nmargin = 0.02\n\
+                 [defender.filter.own_episodes]\nkeep = 50\n[sac]\ndemos_in_replay = true\nbc_weight = 1.0\n"
+            ),
+        )
+        .unwrap();
+    }
+    let set = load_runs(&[root.path()]).unwrap();
+    let plots = draw_plots(&set.runs, root.path().join("p"), &PlotOptions::default()).unwrap();
+    assert_eq!(plots.files.len(), 10, "{:?}", plots.files);
+    assert!(
+        plots.files.iter().all(|p| p.file_name().unwrap().to_string_lossy().starts_with("Hopper-v5_sac_"))
+    );
+    let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_crash.svg")).unwrap();
+    assert!(svg.contains("SAC (bare) [2 seeds]"), "{svg}");
+    assert!(svg.contains(&format!("{}, keeps-learning [2 seeds]", A.unwrap().0)), "{svg}");
+}

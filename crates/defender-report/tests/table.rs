@@ -390,3 +390,24 @@ fn zscore_runs_form_rows_of_their_own() {
     let markdown = render(&table, Format::Markdown);
     assert!(markdown.contains("z-score: "), "{markdown}");
 }
+
+#[test]
+fn an_arm_without_a_bare_run_of_its_own_label_is_timed_against_the_algorithm() {
+    // An arm whose label names its filter options (`sac (demos+BC, margin0.02)`) has no bare run
+    // of that label; its agent is SAC's, so bare SAC of the same seed is its yardstick.
+    let root = tempfile::tempdir().unwrap();
+    RunSpec::new("sac", 0, None).wall(10.0).write(root.path());
+    let dir = RunSpec::new("sac", 0, A).wall(15.0).write(root.path());
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    std::fs::write(
+        dir.join("config.toml"),
+        format!(
+            "{config}\n[defender.filter]\nmargin = 0.02\n[sac]\ndemos_in_replay = true\nbc_weight = 1.0\n"
+        ),
+    )
+    .unwrap();
+    let table = Table::from_runs(&load_runs(&[root.path()]).unwrap().runs);
+    let arm = table.rows.iter().find(|r| r.algo != "sac").unwrap();
+    assert_eq!(arm.algo, "sac (demos+BC, margin0.02)");
+    assert!(close(&arm.time_pct.unwrap(), 150.0, 0.0), "{:?}", arm.time_pct);
+}
