@@ -103,9 +103,8 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
     let mut groups: BTreeMap<Key<'_>, Curves<'_>> = BTreeMap::new();
     for run in runs {
         let c = &run.config;
-        let base = c.algo.split_once(' ').map_or(c.algo.as_str(), |(algo, _)| algo);
         groups
-            .entry((c.env.as_str(), base, c.budget))
+            .entry((c.env.as_str(), crate::run::label_parts(&c.algo).0, c.budget))
             .or_default()
             .entry((c.filter.is_some(), c.algo.as_str(), c.filter.as_ref()))
             .or_default()
@@ -124,8 +123,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let modes: BTreeSet<_> = by_filter.keys().filter_map(|k| k.2).map(|f| f.mode).collect();
         let demos: BTreeSet<_> = by_filter.keys().filter_map(|k| k.2).map(|f| f.num_demos).collect();
         let label = |(_, row, filter): (bool, &str, Option<&DefenderSettings>), seeds: usize| {
-            let tags = row.split_once(" (").map(|(_, t)| t.trim_end_matches(')'));
-            let mut text = match (filter, tags) {
+            let mut text = match (filter, crate::run::label_parts(row).1) {
                 (None, _) => format!("{} (bare)", crate::run::algo_display(row)),
                 (Some(f), None) => f.name(),
                 (Some(f), Some(tags)) => format!("{}, {tags}", f.name()),

@@ -503,9 +503,18 @@ struct RawAgent {
 /// A row's algorithm label as tables and plots print it: the algorithm in capitals, what sets
 /// the run apart as written (`SAC (demos+BC, margin0.02+own50)`).
 pub fn algo_display(label: &str) -> String {
-    match label.split_once(' ') {
-        Some((algo, rest)) => format!("{} {rest}", algo.to_uppercase()),
-        None => label.to_uppercase(),
+    match label_parts(label) {
+        (algo, Some(tags)) => format!("{} ({tags})", algo.to_uppercase()),
+        (algo, None) => algo.to_uppercase(),
+    }
+}
+
+/// A row's algorithm label (`algo_label`) taken apart: the algorithm (`sac`) and what sets the
+/// run apart, if anything (`demos+BC, margin0.02+own50`).
+pub(crate) fn label_parts(label: &str) -> (&str, Option<&str>) {
+    match label.split_once(" (") {
+        Some((algo, tags)) => (algo, Some(tags.strip_suffix(')').unwrap_or(tags))),
+        None => (label, None),
     }
 }
 

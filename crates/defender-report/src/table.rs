@@ -108,7 +108,7 @@ impl Table {
             // The bare run of the same agent (`sac (authors)` for the authors' profile), else
             // plain bare SAC or TD3 (an arm whose label names its filter options has no bare run
             // of its own: its agent is the algorithm's).
-            let base = algo.split_once(' ').map_or(algo.as_str(), |(a, _)| a);
+            let base = crate::run::label_parts(&algo).0;
             for run in &group {
                 let seed = run.config.seed;
                 let own = bare.get(&(env.as_str(), algo.as_str(), budget, seed));
