@@ -21,6 +21,8 @@ the sweep skips complete runs (refusing any made with another configuration than
 for) and resumes stopped ones from their checkpoint. Ctrl-C or SIGTERM
 stops every run at its next episode end with a checkpoint (exit code 130/143); nothing is lost.
 Each run uses one core (one network thread): --jobs N runs N at a time [default: the cores].
+Each run's output goes to <out>/.sweep/logs/<task>__<run>.log (a `progress:` line a minute;
+DEFENDER_PROGRESS_INTERVAL=SECONDS or off), the sweep's own to stderr.
 The experiment format is in docs/experiments.md.")]
 pub struct SweepArgs {
     /// The experiment file (TOML grid; see experiments/).

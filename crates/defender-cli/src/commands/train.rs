@@ -36,7 +36,8 @@ The run directory gets config.toml, metrics.csv, eval.csv, summary.json, checkpo
 TensorBoard event file (`tensorboard --logdir`; [log] tensorboard = false: none) (docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
 a checkpoint (exit code 130/143/129); a checkpoint is also written every 2 minutes, so --resume
 continues even after a kill -9. A resumed run keeps its configuration: only --steps/--episodes
-may extend its budget.")]
+may extend its budget. Progress: a bar on a terminal, else a `progress:` line a minute
+(DEFENDER_PROGRESS_INTERVAL=SECONDS or off).")]
 pub struct TrainArgs {
     /// Gymnasium id of the task (see `defender env list`).
     #[arg(long)]

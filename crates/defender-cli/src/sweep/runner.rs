@@ -9,7 +9,7 @@
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{Context, Result};
 
@@ -94,6 +94,18 @@ fn log_tail(path: &Path) -> String {
     lines[lines.len().saturating_sub(5)..].join("\n")
 }
 
+/// The run's one-line summary (`... steps, ... episodes, Acc Reward ...`): the log's last line that
+/// is neither a progress line nor the closing `run directory:` line.
+fn summary_line(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with("run directory:") && !l.starts_with("progress:"))
+        .unwrap_or("")
+        .to_string()
+}
+
 fn spawn(binary: &Path, root: &Path, run: &PlannedRun, state: RunState) -> Result<Running> {
     let sweep = root.join(SWEEP_DIR);
     let config_path = sweep.join("configs").join(format!("{}.toml", flat(&run.name)));
@@ -164,7 +176,6 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
     let mut pending = queue.into_iter();
     let mut running: Vec<Running> = Vec::new();
     let mut finished_steps = 0u64;
-    let mut last_report = Instant::now();
     loop {
         if stop.is_requested() {
             end.stopped = true;
@@ -201,7 +212,7 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
                                     "[{}/{total}] complete {}: {}",
                                     end.completed + end.skipped,
                                     r.name,
-                                    log_tail(&log).lines().last().unwrap_or("")
+                                    summary_line(&log)
                                 );
                             });
                         }
@@ -228,17 +239,12 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
                 format!("{} {:.0}%", r.name, 100.0 * last_steps(&r.dir) as f64 / of as f64)
             })
             .collect();
-        bar.set_message(names.join(", "));
-        if !std::io::IsTerminal::is_terminal(&std::io::stderr())
-            && last_report.elapsed() > Duration::from_secs(60)
-        {
-            eprintln!(
-                "sweep: {}/{total} complete; running: {}",
-                end.completed + end.skipped,
-                names.join(", ")
-            );
-            last_report = Instant::now();
-        }
+        // Off a terminal, crate::progress prints this as a line every minute.
+        bar.set_message(format!(
+            "{}/{total} complete; running: {}",
+            end.completed + end.skipped,
+            names.join(", ")
+        ));
         std::thread::sleep(Duration::from_millis(200));
     }
     bar.finish_and_clear();
