@@ -105,6 +105,37 @@ fn ablate_profile_authors_matches_the_reference() {
     refused(&two, &["one task at a time"]);
     refused(&["ablate", "--combine", s(&out), s(&spec), "--out", "x.csv"], &["authors score", "scoring"]);
     refused(
+        &[
+            "ablate",
+            "--profile",
+            "authors",
+            "--combine",
+            s(&spec),
+            s(&spec2(&dir, &demos, &episodes)),
+            "--out",
+            "x.csv",
+        ],
+        &["SPEC section 7's scores", "--profile authors first"],
+    );
+    // Files of the authors' score combine into a file of that score: the mean over the files.
+    let both = dir.path().join("both.csv");
+    ok(&["ablate", "--combine", s(&out), s(&diverse), "--out", s(&both)]);
+    let both_csv = std::fs::read_to_string(&both).unwrap();
+    assert!(both_csv.lines().skip(1).all(|l| l.ends_with(",authors")), "{both_csv}");
+    let (a, b, c) = (scores(&out), scores(&diverse), scores(&both));
+    assert_eq!(c.len(), 576);
+    for (strategy, got) in &c {
+        for k in 0..3 {
+            let want = (a[strategy][k] + b[strategy][k]) / 2.0;
+            assert!(
+                (got[k] - want).abs() <= 1e-12,
+                "{strategy}: {got:?}, want the mean of {:?} and {:?}",
+                a[strategy],
+                b[strategy]
+            );
+        }
+    }
+    refused(
         &["ablate", "--horizon", "25", "--demos", s(&demos), "--episodes", s(&episodes), "--out", "x.csv"],
         &["--horizon is for --profile authors"],
     );
@@ -365,4 +396,12 @@ fn the_shipped_authors_set_is_what_its_readme_says() {
     assert_eq!(meta["training_episodes"], 400);
     let r_task = meta["r_task"].as_f64().unwrap() as f32;
     assert_eq!(Some(r_task), set.min_reward());
+}
+
+/// A second SPEC ablation of the same files with other bytes (3 demonstrations per group), for a
+/// --combine of two SPEC files.
+fn spec2(dir: &tempfile::TempDir, demos: &Path, episodes: &Path) -> PathBuf {
+    let path = dir.path().join("spec2.csv");
+    ok(&["ablate", "--demos", s(demos), "--episodes", s(episodes), "--num-demos", "3", "--out", s(&path)]);
+    path
 }

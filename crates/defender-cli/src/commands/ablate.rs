@@ -36,11 +36,14 @@ strategy (SPEC section 9) and the top 10 are printed.
 episode of T steps p = k/T with k the first filtered step (else 1); an episode shorter than the
 horizon counts as crashed and is avoided if filtered; score = mean(p) x mean(avoided over the
 crashed) (mean(p) alone when none crashed); over the first 500 recorded episodes; one task at a
-time; --num-demos N takes N per group chosen for diversity (farthest-point over FastDTW costs).
-Its CSV has the same columns, mean_ratio = mean(p) and safe_rate = the share of crashed episodes
-avoided, and a last column `scoring` = authors.
+time, as their code ranks; --num-demos N takes N per group chosen for diversity (farthest-point
+over FastDTW costs). Its CSV has the same columns, mean_ratio = mean(p) and safe_rate = the share
+of crashed episodes avoided, and a last column `scoring` = authors. --combine ranks such files by
+the mean of their score over tasks (how the paper's text says its top 5 were chosen); it refuses
+a mix of scores.
   defender ablate --profile authors --demos data/demos/Hopper-v5.npz --episodes hopper-episodes.npz \\
-                  --num-demos 50 --out authors-scores.csv")]
+                  --num-demos 50 --out hopper-authors.csv
+  defender ablate --combine idp-authors.csv hopper-authors.csv walker-authors.csv --out authors.csv")]
 pub struct AblateArgs {
     /// Demonstration set of a task (repeat once per task, paired in order with --episodes).
     #[arg(long, required_unless_present = "combine")]
@@ -210,36 +213,55 @@ fn choose_diverse(demos: &EpisodeSet, n: usize, mode: Mode) -> Result<EpisodeSet
     Ok(defender::diversity::select_diverse(demos, n, mode)?)
 }
 
-/// `--combine`: the mean over per-task rankings, as the ablation of several tasks ranks them.
+/// `--combine`: the mean over per-task rankings, as the ablation of several tasks ranks them (the
+/// paper's text: "ranked by the average score for the three tasks"). Files of the authors' score
+/// combine too, into a file of that score; a mix of scores is refused, as is `--profile authors`
+/// over SPEC files.
 fn combine(args: &AblateArgs) -> Result<()> {
-    if args.profile == Profile::Authors {
-        bail!(
-            "--profile authors ranks each task on its own, as the authors' code did: --combine is not for it"
-        );
-    }
     refuse_repeats("--combine", &args.combine)?;
     let mut per_task = Vec::new();
+    let mut scorings: Vec<(String, &PathBuf)> = Vec::new();
     for path in &args.combine {
         let scoring = defender::csv_scoring(path).with_context(|| format!("--combine {}", path.display()))?;
-        if scoring != "spec" {
+        if let Some((first, first_path)) = scorings.first().filter(|(first, _)| *first != scoring) {
             bail!(
-                "--combine {}: its scores are the {scoring} score (its `scoring` column); --combine ranks \
-                 SPEC section 7's scores over tasks",
-                path.display()
+                "--combine {}: its scores are the {scoring} score and {}'s the {first} score (their \
+                 `scoring` columns); a mean over tasks needs one score: ablate every task with the same \
+                 --profile",
+                path.display(),
+                first_path.display()
             );
         }
+        scorings.push((scoring, path));
         let rows = defender::read_csv(path).with_context(|| format!("--combine {}", path.display()))?;
         if rows.is_empty() {
             bail!("--combine {}: no strategy rows", path.display());
         }
         per_task.push(rows);
     }
+    let scoring = match scorings.first().map(|(name, _)| name.as_str()) {
+        Some("authors") => Scoring::Authors { horizon: 0 },
+        Some("spec") | None => Scoring::Spec,
+        Some(other) => bail!("--combine: unknown score `{other}` in a `scoring` column (spec or authors)"),
+    };
+    if args.profile == Profile::Authors && scoring == Scoring::Spec {
+        bail!(
+            "--combine with --profile authors: the files hold SPEC section 7's scores (no `scoring` \
+             column); ablate each task with --profile authors first"
+        );
+    }
     let rows = defender::rank_tasks(&per_task).context(
         "--combine: the rankings must score the same strategies in the same mode (one CSV per task)",
     )?;
-    defender::write_csv(&args.out, &rows)?;
+    defender::write_csv_scored(&args.out, &rows, scoring)?;
     print_top(&rows, args.top);
-    println!("{} strategies ranked over {} tasks -> {}", rows.len(), per_task.len(), args.out.display());
+    println!(
+        "{} strategies ranked by the mean {} score over {} tasks -> {}",
+        rows.len(),
+        scoring.name(),
+        per_task.len(),
+        args.out.display()
+    );
     Ok(())
 }
 
