@@ -256,10 +256,10 @@ fn combine(args: &AblateArgs) -> Result<()> {
     defender::write_csv_scored(&args.out, &rows, scoring)?;
     print_top(&rows, args.top);
     println!(
-        "{} strategies ranked by the mean {} score over {} tasks -> {}",
+        "{} strategies ranked over {} tasks by their mean {} score -> {}",
         rows.len(),
-        scoring.name(),
         per_task.len(),
+        scoring.name(),
         args.out.display()
     );
     Ok(())
