@@ -385,17 +385,23 @@ fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
 fn the_shipped_authors_set_is_what_its_readme_says() {
     // data/demos/authors/README.md describes each file; a set remade with other settings must
     // change the README too.
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/authors/InvertedDoublePendulum-v5.npz");
-    let set = EpisodeSet::load(&path).unwrap();
-    assert_eq!(set.group_sizes(), (20, 80));
-    assert_eq!(set.transitions(), 22_141);
-    let meta = &set.meta().extra;
-    assert_eq!(meta["collection"], "authors");
-    assert_eq!(meta["demonstrate_every"], 4);
-    assert_eq!(meta["training_episodes"], 400);
-    let r_task = meta["r_task"].as_f64().unwrap() as f32;
-    assert_eq!(Some(r_task), set.min_reward());
+    // (file, (safe, unsafe), transitions, demonstrate_every, training_episodes)
+    let shipped = [
+        ("InvertedDoublePendulum-v5.npz", (20, 80), 22_141, 4, 400),
+        ("Hopper-v5.npz", (33, 67), 53_572, 15, 1500),
+    ];
+    for (file, groups, transitions, every, episodes) in shipped {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/demos/authors").join(file);
+        let set = EpisodeSet::load(&path).unwrap();
+        assert_eq!(set.group_sizes(), groups, "{file}");
+        assert_eq!(set.transitions(), transitions, "{file}");
+        let meta = &set.meta().extra;
+        assert_eq!(meta["collection"], "authors", "{file}");
+        assert_eq!(meta["demonstrate_every"], every, "{file}");
+        assert_eq!(meta["training_episodes"], episodes, "{file}");
+        let r_task = meta["r_task"].as_f64().unwrap() as f32;
+        assert_eq!(Some(r_task), set.min_reward(), "{file}");
+    }
 }
 
 /// A second SPEC ablation of the same files with other bytes (3 demonstrations per group), for a
