@@ -37,9 +37,11 @@ pub fn bar(total: u64, unit: &str) -> ProgressBar {
     };
     let bar = ProgressBar::with_draw_target(Some(total), target);
     if let Ok(style) = ProgressStyle::with_template(&template) {
-        // indicatif's own `{per_sec}` prints four decimals of a rate of thousands.
+        // indicatif's own `{per_sec}` prints four decimals of a rate of thousands; a slow unit
+        // (episodes of an ablation) keeps one decimal, so 0.6/s does not read as 1/s.
         let rate = |state: &ProgressState, w: &mut dyn std::fmt::Write| {
-            let _ = write!(w, "{:.0}/s", state.per_sec());
+            let per_sec = state.per_sec();
+            let _ = if per_sec < 10.0 { write!(w, "{per_sec:.1}/s") } else { write!(w, "{per_sec:.0}/s") };
         };
         bar.set_style(style.progress_chars("=> ").with_key("rate", rate));
     }
