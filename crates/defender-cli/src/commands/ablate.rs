@@ -220,10 +220,11 @@ fn choose_diverse(demos: &EpisodeSet, n: usize, mode: Mode) -> Result<EpisodeSet
 fn combine(args: &AblateArgs) -> Result<()> {
     refuse_repeats("--combine", &args.combine)?;
     let mut per_task = Vec::new();
-    let mut scorings: Vec<(String, &PathBuf)> = Vec::new();
+    // The first file's score; every other file must hold the same.
+    let mut first: Option<(String, &PathBuf)> = None;
     for path in &args.combine {
         let scoring = defender::csv_scoring(path).with_context(|| format!("--combine {}", path.display()))?;
-        if let Some((first, first_path)) = scorings.first().filter(|(first, _)| *first != scoring) {
+        if let Some((first, first_path)) = first.as_ref().filter(|(first, _)| *first != scoring) {
             bail!(
                 "--combine {}: its scores are the {scoring} score and {}'s the {first} score (their \
                  `scoring` columns); a mean over tasks needs one score: ablate every task with the same \
@@ -232,14 +233,15 @@ fn combine(args: &AblateArgs) -> Result<()> {
                 first_path.display()
             );
         }
-        scorings.push((scoring, path));
+        first.get_or_insert((scoring, path));
         let rows = defender::read_csv(path).with_context(|| format!("--combine {}", path.display()))?;
         if rows.is_empty() {
             bail!("--combine {}: no strategy rows", path.display());
         }
         per_task.push(rows);
     }
-    let scoring = match scorings.first().map(|(name, _)| name.as_str()) {
+    let scoring = match first.as_ref().map(|(name, _)| name.as_str()) {
+        // Only the name is written; each task's horizon stays in its own file's ranking.
         Some("authors") => Scoring::Authors { horizon: 0 },
         Some("spec") | None => Scoring::Spec,
         Some(other) => bail!("--combine: unknown score `{other}` in a `scoring` column (spec or authors)"),
