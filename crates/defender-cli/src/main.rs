@@ -6,6 +6,7 @@ mod cost_meter;
 mod demo_horizon;
 mod progress;
 mod run_dir;
+mod safety_agent;
 mod setup;
 mod signals;
 mod sweep;

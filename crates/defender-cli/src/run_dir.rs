@@ -24,6 +24,7 @@ fn metrics_row(r: &EpisodeRecord) -> String {
         length: r.length,
         outcome: r.outcome(),
         wall_seconds: r.wall_seconds,
+        cost: r.cost(),
     }
     .to_csv()
 }
@@ -36,6 +37,7 @@ fn eval_row(r: &EvalRecord) -> String {
         std_return: r.std_return,
         mean_length: r.mean_length,
         episodes: r.episodes as u64,
+        mean_cost: r.mean_cost,
     }
     .to_csv()
 }

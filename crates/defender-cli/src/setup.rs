@@ -59,7 +59,7 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
     let action_space = task.action_space().clone();
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
-    let mut agent = algo.build(obs_dim, act_dim, seed)?;
+    let mut agent = crate::safety_agent::build_agent(config, &algo, obs_dim, act_dim, seed)?;
     let Some(section) = config.defender.as_ref() else {
         let mut replay_demos = None;
         if algo.demos_in_replay() {
@@ -195,6 +195,8 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
                 obs: &obs,
                 action: &action,
                 reward: f64::from(episode.rew[t]),
+                // The crash cost of the three tasks: a crashed demonstration's last step.
+                cost: if last && episode.crashed { 1.0 } else { 0.0 },
                 next_obs: &next,
                 terminated: last && episode.crashed,
                 truncated: last && !episode.crashed,

@@ -34,11 +34,13 @@ struct Metrics {
 fn read_metrics(dir: &Path) -> Metrics {
     let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), "episode,total_steps,return,length,outcome,wall_seconds");
+    assert_eq!(lines.next().unwrap(), "episode,total_steps,return,length,outcome,wall_seconds,cost");
     let rows = lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            assert_eq!(f.len(), 6, "{l}");
+            assert_eq!(f.len(), 7, "{l}");
+            // The crash cost of the three tasks: 1 for a crashed episode, 0 otherwise.
+            assert_eq!(f[6], if f[4] == "crashed" { "1" } else { "0" }, "{l}");
             (
                 f[0].parse().unwrap(),
                 f[1].parse().unwrap(),

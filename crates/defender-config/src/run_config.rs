@@ -67,6 +67,10 @@ pub struct RunConfig {
     /// TD3 hyperparameters (used when `algo = "td3"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub td3: Option<defender_rl::Td3Config>,
+    /// A baseline that learns from the steps' costs (`[safety]`: `method = "penalty"`,
+    /// `"lagrangian"` or `"recovery"`; defender_rl::safety); absent: the agent ignores costs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub safety: Option<defender_rl::SafetyConfig>,
     /// What the run writes besides its CSV files (`[log]`); left out of `config.toml` when it is
     /// the default, so runs started before it resume unchanged.
     #[serde(default, skip_serializing_if = "LogSection::is_default")]
@@ -167,6 +171,10 @@ impl RunConfig {
         }
         if let Some(td3) = &self.td3 {
             td3.validate().context("[td3]")?;
+        }
+        if let Some(safety) = &self.safety {
+            // Every task defender runs today has the crash cost (1 per crashed episode).
+            safety.validate_for_crash_cost().context("[safety]")?;
         }
         Ok(())
     }

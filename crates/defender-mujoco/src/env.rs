@@ -246,6 +246,8 @@ impl MujocoEnv {
         Step {
             obs,
             reward: 0.0,
+            // An unstable simulation ends the episode as terminated: a crash, and costs as one.
+            cost: 1.0,
             terminated: true,
             truncated: false,
             info: StepInfo { unstable: true, filtered: false },
@@ -330,6 +332,8 @@ impl Env for MujocoEnv {
             return Ok(self.unstable_step("non-finite observation or reward"));
         }
         self.needs_reset = terminated;
-        Ok(Step { obs, reward, terminated, truncated: false, info: StepInfo::default() })
+        // The crash cost of the three tasks: 1 on the step where the task terminates the episode.
+        let cost = if terminated { 1.0 } else { 0.0 };
+        Ok(Step { obs, reward, cost, terminated, truncated: false, info: StepInfo::default() })
     }
 }

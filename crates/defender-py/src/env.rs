@@ -170,7 +170,7 @@ impl Env for PyEnv {
             let v = self.read_obs(&obs, Method::Step)?;
             self.out_obs = Some(obs.unbind());
             self.out_info = Some(tuple.get_item(4)?.unbind());
-            Ok(Step { obs: v, reward, terminated, truncated, info: StepInfo::default() })
+            Ok(Step { obs: v, reward, cost: 0.0, terminated, truncated, info: StepInfo::default() })
         });
         result.map_err(|e| self.fail(e))
     }

@@ -15,6 +15,7 @@ pub(crate) struct CsvFile<'a> {
     /// Index in each row of each requested column, in the order requested.
     columns: Vec<usize>,
     names: &'static [&'static str],
+    header: Vec<&'a str>,
     rows: Vec<(usize, Vec<&'a str>)>,
 }
 
@@ -60,7 +61,13 @@ impl<'a> CsvFile<'a> {
             }
             rows.push((line, fields));
         }
-        Ok(Self { path, columns, names, rows })
+        Ok(Self { path, columns, names, header: header_fields, rows })
+    }
+
+    /// The index in each row of the column `name`, if the header has it: for columns a later
+    /// version of the contract added, absent from older files.
+    pub(crate) fn optional_column(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|f| *f == name)
     }
 
     /// The data rows, as accessors.
@@ -95,6 +102,19 @@ impl Row<'_, '_> {
             Ok(value)
         } else {
             Err(self.error(format!("column {}: {value} is not a finite number", self.file.names[k])))
+        }
+    }
+
+    /// The column at `index` ([`CsvFile::optional_column`]) as a finite number, `None` where
+    /// the field is empty (a value the writer did not know).
+    pub(crate) fn optional_finite(&self, index: usize, name: &str) -> Result<Option<f64>> {
+        let text = self.fields[index];
+        if text.is_empty() {
+            return Ok(None);
+        }
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(Some(v)),
+            _ => Err(self.error(format!("column {name}: {text:?} is not a finite number"))),
         }
     }
 

@@ -20,9 +20,9 @@ pub const EVAL_FILE: &str = "eval.csv";
 pub const SUMMARY_FILE: &str = "summary.json";
 
 /// The header of `metrics.csv`.
-pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds";
+pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds,cost";
 /// The header of `eval.csv`.
-pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes";
+pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes,mean_cost";
 /// The learner's statistics every 1000 steps (written by `defender train`, not read by the
 /// report).
 pub const UPDATES_FILE: &str = "updates.csv";
@@ -247,19 +247,23 @@ pub struct EpisodeRow {
     pub outcome: Outcome,
     /// Wall-clock seconds since the run started, at the end of this episode.
     pub wall_seconds: f64,
+    /// Sum of the steps' costs (a file from before costs existed, all of crash tasks: 1 for a
+    /// crashed episode, else 0).
+    pub cost: f64,
 }
 
 impl EpisodeRow {
     /// The row as `metrics.csv` holds it (without the newline).
     pub fn to_csv(&self) -> String {
         format!(
-            "{},{},{},{},{},{:.3}",
+            "{},{},{},{},{},{:.3},{}",
             self.episode,
             self.total_steps,
             self.ret,
             self.length,
             self.outcome.as_str(),
-            self.wall_seconds
+            self.wall_seconds,
+            self.cost
         )
     }
 }
@@ -277,14 +281,21 @@ pub struct EvalRow {
     pub mean_length: f64,
     /// How many episodes.
     pub episodes: u64,
+    /// Their mean cost (`None` in files from before costs existed).
+    pub mean_cost: Option<f64>,
 }
 
 impl EvalRow {
     /// The row as `eval.csv` holds it (without the newline).
     pub fn to_csv(&self) -> String {
         format!(
-            "{},{},{},{},{}",
-            self.total_steps, self.mean_return, self.std_return, self.mean_length, self.episodes
+            "{},{},{},{},{},{}",
+            self.total_steps,
+            self.mean_return,
+            self.std_return,
+            self.mean_length,
+            self.episodes,
+            self.mean_cost.map(|c| c.to_string()).unwrap_or_default()
         )
     }
 }
@@ -613,6 +624,7 @@ const METRICS_COLUMNS: &[&str] = &["episode", "total_steps", "return", "length",
 
 fn parse_metrics(path: &Path, text: &str) -> Result<Vec<EpisodeRow>> {
     let file = CsvFile::parse(path, text, METRICS_HEADER, METRICS_COLUMNS)?;
+    let cost_column = file.optional_column("cost");
     let mut episodes: Vec<EpisodeRow> = Vec::new();
     for row in file.rows() {
         let outcome = Outcome::from_name(row.text(4)).ok_or_else(|| {
@@ -625,6 +637,10 @@ fn parse_metrics(path: &Path, text: &str) -> Result<Vec<EpisodeRow>> {
             length: row.get(3)?,
             outcome,
             wall_seconds: row.finite(5)?,
+            cost: match cost_column {
+                Some(i) => row.optional_finite(i, "cost")?.unwrap_or_default(),
+                None => f64::from(u8::from(outcome == Outcome::Crashed)),
+            },
         };
         let expected = episodes.len() as u64;
         if episode.episode != expected {
@@ -647,6 +663,7 @@ const EVAL_COLUMNS: &[&str] = &["total_steps", "mean_return", "std_return", "mea
 
 fn parse_eval(path: &Path, text: &str) -> Result<Vec<EvalRow>> {
     let file = CsvFile::parse(path, text, EVAL_HEADER, EVAL_COLUMNS)?;
+    let cost_column = file.optional_column("mean_cost");
     let mut evaluations: Vec<EvalRow> = Vec::new();
     for row in file.rows() {
         let evaluation = EvalRow {
@@ -655,6 +672,7 @@ fn parse_eval(path: &Path, text: &str) -> Result<Vec<EvalRow>> {
             std_return: row.finite(2)?,
             mean_length: row.finite(3)?,
             episodes: row.get(4)?,
+            mean_cost: cost_column.map(|i| row.optional_finite(i, "mean_cost")).transpose()?.flatten(),
         };
         if let Some(prev) = evaluations.last()
             && evaluation.total_steps < prev.total_steps

@@ -84,7 +84,7 @@ mod tests {
     use super::*;
 
     fn episode(total_steps: u64, outcome: Outcome) -> EpisodeRow {
-        EpisodeRow { episode: 0, total_steps, ret: 0.0, length: 0, outcome, wall_seconds: 0.0 }
+        EpisodeRow { episode: 0, total_steps, ret: 0.0, length: 0, outcome, wall_seconds: 0.0, cost: 0.0 }
     }
 
     #[test]

@@ -22,6 +22,8 @@ pub struct Transition<'a> {
     pub action: &'a [f32],
     /// Reward of the step.
     pub reward: f64,
+    /// Cost of the step ([`crate::Step::cost`]).
+    pub cost: f64,
     /// Observation after the step (the final observation when the episode ended).
     pub next_obs: &'a [f64],
     /// The episode reached an absorbing state: the target must not bootstrap from `next_obs`.
@@ -42,6 +44,8 @@ pub struct Batch {
     pub actions: Vec<f32>,
     /// Rewards, `size`.
     pub rewards: Vec<f32>,
+    /// Costs, `size` (what a cost critic learns: Lagrangian SAC, Recovery RL's safety critic).
+    pub costs: Vec<f32>,
     /// Next observations, `size x obs_dim`.
     pub next_obs: Vec<f32>,
     /// 1.0 where the transition terminated (no bootstrap), else 0.0, `size`.
@@ -59,6 +63,7 @@ impl Batch {
             obs: vec![0.0; size * obs_dim],
             actions: vec![0.0; size * act_dim],
             rewards: vec![0.0; size],
+            costs: vec![0.0; size],
             next_obs: vec![0.0; size * obs_dim],
             terminated: vec![0.0; size],
             bc: vec![0.0; size],
@@ -78,6 +83,7 @@ pub struct ReplayBuffer {
     next_obs: Vec<f32>,
     actions: Vec<f32>,
     rewards: Vec<f32>,
+    costs: Vec<f32>,
     terminated: Vec<bool>,
     truncated: Vec<bool>,
     /// The transition belongs to a safe demonstration to clone (saved as bit 2 of the flags, so
@@ -85,8 +91,11 @@ pub struct ReplayBuffer {
     bc: Vec<bool>,
 }
 
-/// Magic and version at the head of a saved buffer.
-const MAGIC: &[u8; 8] = b"DFRPLB01";
+/// Magic and version at the head of a saved buffer: version 2 adds the costs after the flags.
+const MAGIC: &[u8; 8] = b"DFRPLB02";
+/// Version 1, before costs: read with zero costs (no agent of that time read them, so a run
+/// resumed from such a buffer continues exactly as it began).
+const MAGIC_V1: &[u8; 8] = b"DFRPLB01";
 
 impl ReplayBuffer {
     /// An empty buffer holding up to `capacity` transitions (all memory reserved now; the OS
@@ -122,6 +131,7 @@ impl ReplayBuffer {
             next_obs: floats(capacity.checked_mul(obs_dim), "the next observations")?,
             actions: floats(capacity.checked_mul(act_dim), "the actions")?,
             rewards: floats(Some(capacity), "the rewards")?,
+            costs: floats(Some(capacity), "the costs")?,
             terminated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
             truncated: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
             bc: zeroed::<bool>(capacity).ok_or_else(|| too_big("the flags"))?,
@@ -195,6 +205,7 @@ impl ReplayBuffer {
         }
         self.actions[a..a + self.act_dim].copy_from_slice(t.action);
         self.rewards[self.pos] = t.reward as f32;
+        self.costs[self.pos] = t.cost as f32;
         self.terminated[self.pos] = t.terminated;
         self.truncated[self.pos] = t.truncated;
         self.bc[self.pos] = bc;
@@ -233,6 +244,7 @@ impl ReplayBuffer {
             batch.next_obs[row * od..(row + 1) * od].copy_from_slice(&self.next_obs[i * od..(i + 1) * od]);
             batch.actions[row * ad..(row + 1) * ad].copy_from_slice(&self.actions[i * ad..(i + 1) * ad]);
             batch.rewards[row] = self.rewards[i];
+            batch.costs[row] = self.costs[i];
             // Only `terminated` masks the bootstrap; `truncated` transitions bootstrap as usual.
             batch.terminated[row] = if self.terminated[i] { 1.0 } else { 0.0 };
             batch.bc[row] = if self.bc[i] { 1.0 } else { 0.0 };
@@ -271,6 +283,9 @@ impl ReplayBuffer {
             })
             .collect();
         write(&flags)?;
+        for v in &self.costs[..n] {
+            write(&v.to_le_bytes())?;
+        }
         w.flush().map_err(|e| RlError::io(path, e))
     }
 
@@ -284,7 +299,8 @@ impl ReplayBuffer {
         let mut r = std::io::BufReader::with_capacity(1 << 20, file);
         let mut magic = [0u8; 8];
         r.read_exact(&mut magic).map_err(|e| RlError::io(path, e))?;
-        if &magic != MAGIC {
+        let v1 = &magic == MAGIC_V1;
+        if &magic != MAGIC && !v1 {
             return Err(RlError::checkpoint(path, "not a replay buffer file (bad magic)"));
         }
         let mut header = [0u64; 6];
@@ -310,7 +326,7 @@ impl ReplayBuffer {
                 format!("inconsistent header: pos {pos}, full {full}, len {n}"),
             ));
         }
-        let mut read_f32 = |dst: &mut [f32]| -> Result<(), RlError> {
+        let read_f32 = |r: &mut std::io::BufReader<std::fs::File>, dst: &mut [f32]| -> Result<(), RlError> {
             let mut bytes = vec![0u8; dst.len() * 4];
             r.read_exact(&mut bytes).map_err(|e| RlError::io(path, e))?;
             for (d, c) in dst.iter_mut().zip(bytes.chunks_exact(4)) {
@@ -318,16 +334,21 @@ impl ReplayBuffer {
             }
             Ok(())
         };
-        read_f32(&mut self.obs[..n * obs_dim])?;
-        read_f32(&mut self.next_obs[..n * obs_dim])?;
-        read_f32(&mut self.actions[..n * act_dim])?;
-        read_f32(&mut self.rewards[..n])?;
+        read_f32(&mut r, &mut self.obs[..n * obs_dim])?;
+        read_f32(&mut r, &mut self.next_obs[..n * obs_dim])?;
+        read_f32(&mut r, &mut self.actions[..n * act_dim])?;
+        read_f32(&mut r, &mut self.rewards[..n])?;
         let mut flags = vec![0u8; n];
         r.read_exact(&mut flags).map_err(|e| RlError::io(path, e))?;
         for (i, f) in flags.iter().enumerate() {
             self.terminated[i] = f & 1 != 0;
             self.truncated[i] = f & 2 != 0;
             self.bc[i] = f & 4 != 0;
+        }
+        if v1 {
+            self.costs[..n].fill(0.0);
+        } else {
+            read_f32(&mut r, &mut self.costs[..n])?;
         }
         self.pos = pos;
         self.full = full == 1;
@@ -363,7 +384,15 @@ mod tests {
     use rand::SeedableRng;
 
     fn t<'a>(obs: &'a [f64], act: &'a [f32], next: &'a [f64], term: bool) -> Transition<'a> {
-        Transition { obs, action: act, reward: obs[0], next_obs: next, terminated: term, truncated: !term }
+        Transition {
+            obs,
+            action: act,
+            reward: obs[0],
+            cost: f64::from(u8::from(term)),
+            next_obs: next,
+            terminated: term,
+            truncated: !term,
+        }
     }
 
     #[test]
@@ -418,6 +447,8 @@ mod tests {
         assert_eq!(back.next_obs, buf.next_obs);
         assert_eq!(back.actions, buf.actions);
         assert_eq!(back.rewards, buf.rewards);
+        assert_eq!(back.costs, buf.costs);
+        assert!(back.costs.contains(&1.0));
         assert_eq!(back.terminated, buf.terminated);
         assert_eq!(back.truncated, buf.truncated);
         // Demonstrations keep their flag through a save.

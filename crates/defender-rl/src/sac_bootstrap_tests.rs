@@ -9,8 +9,15 @@ fn targets_are_rewards(config: SacConfig, terminated: bool, truncated: bool) -> 
     let mut sac = Sac::new(config, 2, 1, 0).unwrap();
     for i in 0..20 {
         let x = f64::from(i) / 20.0;
-        let t =
-            Transition { obs: &[x, -x], action: &[0.5], reward: x, next_obs: &[x, x], terminated, truncated };
+        let t = Transition {
+            obs: &[x, -x],
+            action: &[0.5],
+            reward: x,
+            cost: 0.0,
+            next_obs: &[x, x],
+            terminated,
+            truncated,
+        };
         sac.observe(&t).unwrap();
     }
     sac.gradient_step().unwrap();

@@ -332,6 +332,7 @@ mod tests {
                 obs: &[x, -x],
                 action: &[0.5],
                 reward: x,
+                cost: 0.0,
                 next_obs: &[x, x],
                 terminated,
                 truncated: !terminated,

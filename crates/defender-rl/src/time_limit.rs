@@ -104,6 +104,7 @@ mod tests {
             Ok(Step {
                 obs: vec![self.t],
                 reward: 1.0,
+                cost: 0.0,
                 terminated: false,
                 truncated: false,
                 info: StepInfo::default(),

@@ -137,6 +137,10 @@ pub struct EpisodeRecord {
     /// Undiscounted sum of rewards.
     #[serde(rename = "return")]
     pub episode_return: f64,
+    /// Undiscounted sum of the steps' costs ([`crate::Step::cost`]). `None` only in records
+    /// written before costs existed: see [`EpisodeRecord::cost`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost: Option<f64>,
     /// Steps in the episode.
     pub length: u64,
     /// The last step was `terminated`.
@@ -152,6 +156,12 @@ pub struct EpisodeRecord {
 }
 
 impl EpisodeRecord {
+    /// The episode's cost. A record from before costs existed (a checkpoint of an older run)
+    /// was made on a crash task, where the cost is 1 for a crashed episode and 0 otherwise.
+    pub fn cost(&self) -> f64 {
+        self.cost.unwrap_or(if self.outcome() == Outcome::Crashed { 1.0 } else { 0.0 })
+    }
+
     /// The outcome: filtered if any step was filtered, else crashed if the environment
     /// terminated it, else truncated.
     pub fn outcome(&self) -> Outcome {
@@ -176,6 +186,9 @@ pub struct EvalRecord {
     pub std_return: f64,
     /// Mean episode length.
     pub mean_length: f64,
+    /// Mean episode cost (`None` in records written before costs existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_cost: Option<f64>,
     /// Episodes run.
     pub episodes: usize,
     /// Each episode's return.
@@ -327,6 +340,9 @@ fn check_finite(step: &Step, total_steps: u64, episode: u64) -> Result<(), RlErr
         |field, index, value| RlError::NonFiniteStep { field, index, value, step: total_steps, episode };
     if !step.reward.is_finite() {
         return Err(bad("reward", 0, step.reward));
+    }
+    if !step.cost.is_finite() {
+        return Err(bad("cost", 0, step.cost));
     }
     match step.obs.iter().position(|v| !v.is_finite()) {
         Some(i) => Err(bad("observation", i, step.obs[i])),
@@ -514,7 +530,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
             let episode = self.state.episodes.len() as u64;
             let seed = derive_seed(self.state.config.seed, SeedPurpose::TrainEpisode, episode);
             let mut obs = self.env.reset(Some(seed))?;
-            let (mut ret, mut length, mut filtered, mut unstable) = (0.0, 0u64, false, false);
+            let (mut ret, mut cost, mut length, mut filtered, mut unstable) = (0.0, 0.0, 0u64, false, false);
             loop {
                 self.agent.act(&obs, false, &mut action)?;
                 self.rescale(&action, &mut env_action);
@@ -526,6 +542,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                     obs: &obs,
                     action: &action,
                     reward: step.reward,
+                    cost: step.cost,
                     next_obs: &step.obs,
                     terminated: step.terminated,
                     truncated: step.truncated,
@@ -537,6 +554,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 }
                 hooks.on_step(self.state.total_steps);
                 ret += step.reward;
+                cost += step.cost;
                 length += 1;
                 filtered |= step.info.filtered;
                 unstable |= step.info.unstable;
@@ -553,6 +571,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                         episode,
                         total_steps: self.state.total_steps,
                         episode_return: ret,
+                        cost: Some(cost),
                         length,
                         terminated: step.terminated,
                         truncated: step.truncated,
@@ -607,6 +626,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         let mut action = vec![0.0f32; act_dim];
         let mut env_action = vec![0.0f64; act_dim];
         let (mut returns, mut lengths) = (Vec::with_capacity(episodes), Vec::with_capacity(episodes));
+        let mut total_cost = 0.0;
         for _ in 0..episodes {
             let seed =
                 derive_seed(self.state.config.seed, SeedPurpose::EvalEpisode, self.state.eval_episodes_run);
@@ -618,6 +638,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 self.rescale(&action, &mut env_action);
                 let step = self.eval_env.step(&env_action)?;
                 ret += step.reward;
+                total_cost += step.cost;
                 len += 1;
                 if step.done() {
                     break;
@@ -635,6 +656,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
             mean_return: mean,
             std_return: std,
             mean_length: lengths.iter().sum::<f64>() / n,
+            mean_cost: Some(total_cost / n),
             episodes,
             returns,
             is_final,

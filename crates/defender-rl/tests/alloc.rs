@@ -19,6 +19,7 @@ fn cycle(agent: &mut dyn Agent, steps: usize) -> u64 {
             obs: &obs,
             action: &action,
             reward: 1.0,
+            cost: 0.0,
             next_obs: &next,
             terminated: i % 7 == 0,
             truncated: false,

@@ -212,6 +212,7 @@ fn trainer_with_demonstrations(algo: &AlgoConfig, seed: u64) -> PendulumTrainer 
                 obs: &obs,
                 action: &action,
                 reward: -phase,
+                cost: 0.0,
                 next_obs: &next,
                 terminated: last && !safe,
                 truncated: last && safe,

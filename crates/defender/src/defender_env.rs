@@ -335,6 +335,8 @@ impl<E: Env> Env for DefenderEnv<E> {
             return Ok(Step {
                 obs: self.pred.clone(),
                 reward: self.r_task,
+                // Nothing reached the environment: no violation happened.
+                cost: 0.0,
                 terminated: true,
                 truncated: false,
                 info: StepInfo { filtered: true, ..StepInfo::default() },

@@ -366,6 +366,7 @@ impl DynamicsModel {
             obs,
             action: &self.action_f32,
             reward: 0.0,
+            cost: 0.0,
             next_obs,
             terminated: false,
             truncated: false,

@@ -6,6 +6,7 @@ pub mod demos;
 mod demos_authors;
 pub mod env;
 pub mod report;
+pub mod safety_flags;
 pub mod screen;
 pub mod select;
 pub mod sweep;

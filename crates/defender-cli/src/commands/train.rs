@@ -127,6 +127,8 @@ pub struct TrainArgs {
     /// The run directory to write.
     #[arg(long)]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub safety: super::safety_flags::SafetyFlags,
 }
 
 fn parse_algo(s: &str) -> Result<Algo, String> {
@@ -166,6 +168,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             defender: None,
             sac: None,
             td3: None,
+            safety: None,
             log: Default::default(),
         },
     };
@@ -262,6 +265,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     if args.record_episodes.is_some() {
         config.record_episodes.clone_from(&args.record_episodes);
     }
+    args.safety.apply(&mut config);
     let wants_defender = args.strategy.is_some()
         || args.demos.is_some()
         || args.num_demos.is_some()

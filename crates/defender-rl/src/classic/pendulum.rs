@@ -122,7 +122,14 @@ impl Env for Pendulum {
         self.elapsed += 1;
         let truncated = self.elapsed >= HORIZON;
         self.needs_reset = truncated;
-        Ok(Step { obs: self.obs(), reward: -cost, terminated: false, truncated, info: StepInfo::default() })
+        Ok(Step {
+            obs: self.obs(),
+            reward: -cost,
+            cost: 0.0,
+            terminated: false,
+            truncated,
+            info: StepInfo::default(),
+        })
     }
 }
 

@@ -196,6 +196,7 @@ fn load_legacy_store(m: &mut DynamicsModel, path: &Path, pos: usize, len: usize)
             obs: &obs,
             action: &arrays[1][i * a..(i + 1) * a],
             reward: 0.0,
+            cost: 0.0,
             next_obs: &next,
             terminated: false,
             truncated: false,

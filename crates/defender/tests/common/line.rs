@@ -47,6 +47,7 @@ impl Env for Line {
         Ok(Step {
             obs: vec![self.x, 1.0],
             reward: 1.0,
+            cost: if terminated { 1.0 } else { 0.0 },
             terminated,
             truncated: false,
             info: StepInfo::default(),

@@ -1,0 +1,22 @@
+//! The agent of a run with its `[safety]` baseline (defender_rl::safety) around or inside it.
+
+use anyhow::{Result, bail};
+use defender_config::run_config::RunConfig;
+use defender_rl::safety::penalty::Penalized;
+use defender_rl::{Agent, AlgoConfig, SafetyConfig};
+
+/// The run's agent: the configured algorithm, learning from costs as `[safety]` says.
+pub fn build_agent(
+    config: &RunConfig,
+    algo: &AlgoConfig,
+    obs_dim: usize,
+    act_dim: usize,
+    seed: u64,
+) -> Result<Box<dyn Agent>> {
+    let agent = algo.build(obs_dim, act_dim, seed)?;
+    Ok(match &config.safety {
+        None => agent,
+        Some(SafetyConfig::Penalty { penalty }) => Box::new(Penalized::new(agent, *penalty)),
+        Some(other) => bail!("[safety] method = \"{}\" is not available in this build", other.method()),
+    })
+}
