@@ -15,7 +15,9 @@ n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filter
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
 acc_reward_ci_lo,acc_reward_ci_hi,best_episode_mean,best_episode_std,best_episode_ci_lo,best_episode_ci_hi,\
 last10_eval_mean,last10_eval_std,last10_eval_ci_lo,last10_eval_ci_hi,crash_pct_ci_lo,crash_pct_ci_hi,\
-standing_pct_mean,standing_pct_std,standing_pct_ci_lo,standing_pct_ci_hi";
+standing_pct_mean,standing_pct_std,standing_pct_ci_lo,standing_pct_ci_hi,\
+crashes_mean,crashes_std,crashes_ci_lo,crashes_ci_hi,\
+crashes_per_1k_env_steps_mean,crashes_per_1k_env_steps_std,crashes_per_1k_env_steps_ci_lo,crashes_per_1k_env_steps_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -72,6 +74,10 @@ pub(crate) fn csv(table: &Table) -> String {
         fields.extend(interval(Some(&row.crash_pct)));
         fields.extend(mean_std(row.standing_pct.as_ref()));
         fields.extend(interval(row.standing_pct.as_ref()));
+        for e in [&row.crashes, &row.crashes_per_1k] {
+            fields.extend(mean_std(Some(e)));
+            fields.extend(interval(Some(e)));
+        }
         let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
         out.push_str(&fields.join(","));
         out.push('\n');

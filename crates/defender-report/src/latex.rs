@@ -28,8 +28,8 @@ fn tex_escape(text: &str) -> String {
 }
 
 /// Columns per task: Acc Reward (final eval), Best episode (the paper's Acc Reward), % Crash,
-/// % Time.
-const PER_TASK: usize = 4;
+/// Crashes (over the run), % Time.
+const PER_TASK: usize = 5;
 
 /// The LaTeX report of `table`.
 pub(crate) fn latex(table: &Table) -> String {
@@ -54,7 +54,8 @@ pub(crate) fn latex(table: &Table) -> String {
             out,
             "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
              (final eval): mean return of the final evaluation; Best episode: the best training-episode \
-             return of a run (the paper's Acc Reward); mean $\\pm$ std over seeds.}}\n\
+             return of a run (the paper's Acc Reward); \\% Crash: crashed / all training episodes; Crashes: crashed training \
+             episodes over the run; mean $\\pm$ std over seeds.}}\n\
              \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
             tex_escape(mode_title(mode)),
             "l".repeat(labels),
@@ -71,7 +72,7 @@ pub(crate) fn latex(table: &Table) -> String {
         }
         out.push_str(if demos { "\nSafe & Unsafe & Demos" } else { "\nSafe & Unsafe" });
         for _ in &columns {
-            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & \\% Time");
+            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time");
         }
         out.push_str(" \\\\\n");
         let algos: Vec<&str> =
@@ -109,10 +110,11 @@ pub(crate) fn latex(table: &Table) -> String {
                         Some(r) => {
                             let _ = write!(
                                 out,
-                                " & {} & {} & {} & {}",
+                                " & {} & {} & {} & {} & {}",
                                 pm(&r.acc_reward.stat, 0, "$\\pm$"),
                                 r.best_episode.map_or_else(|| "-".into(), |b| pm(&b.stat, 0, "$\\pm$")),
                                 pm(&r.crash_pct.stat, 0, "$\\pm$"),
+                                pm(&r.crashes.stat, 0, "$\\pm$"),
                                 time(r)
                             );
                         }

@@ -2,6 +2,7 @@
 
 mod bootstrap;
 mod cells;
+mod crashes_vs_eval;
 mod csv;
 mod csv_out;
 mod curves;
@@ -9,6 +10,7 @@ mod discover;
 mod error;
 mod figure;
 mod io;
+mod label;
 mod latex;
 mod markdown;
 mod measures;
@@ -19,6 +21,7 @@ mod stats;
 mod status;
 mod table;
 mod tradeoff;
+mod violations;
 mod windows;
 
 pub use bootstrap::{
@@ -39,3 +42,4 @@ pub use run::{
 pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};
 pub use status::{SkipKind, SkippedRun, lock_holder};
 pub use table::{Row, Table};
+pub use violations::Violations;

@@ -17,7 +17,10 @@ Acc Reward (final eval): mean return of the final evaluation (SPEC section 6; de
 policy, 10 episodes). Best episode (paper's Acc Reward): the best single training-episode return \
 of the run, filtered episodes included (what the paper's code reports as Acc Reward). Last-10 \
 eval: mean return of the run's last 10 evaluations (all of them if it has fewer). % Crash: \
-crashed / all training episodes x 100. Standing %: evaluations in which the agent stood still \
+crashed / all training episodes x 100 (the paper's measure: the episodes the filter ends join its \
+denominator). Crashes: crashed training episodes over the run. Crashes / 1k env steps: crashes / \
+environment steps of training x 1000, a filtered step not counting (it never reaches the \
+environment). Standing %: evaluations in which the agent stood still \
 (every episode lasted the task's horizon, 1000 steps, and the mean return is within 10% of the \
 mean length) / all evaluations x 100; - for a task of unknown horizon. Each is mean ± std over \
 the row's seeds (population std, ddof = 0) [95% percentile bootstrap confidence interval of the \
@@ -47,6 +50,8 @@ pub(crate) fn markdown(table: &Table) -> String {
                 "Best episode (paper's Acc Reward)",
                 "Last-10 eval",
                 "% Crash",
+                "Crashes",
+                "Crashes / 1k env steps",
                 "Standing %",
                 "% Time",
                 "Seeds",
@@ -66,6 +71,8 @@ pub(crate) fn markdown(table: &Table) -> String {
                     pm_ci_or_dash(row.best_episode.as_ref(), 0),
                     pm_ci(&row.last_evaluations, 0),
                     pm_ci(&row.crash_pct, 1),
+                    pm_ci(&row.crashes, 0),
+                    pm_ci(&row.crashes_per_1k, 2),
                     pm_ci_or_dash(row.standing_pct.as_ref(), 0),
                     time(row),
                     row.seeds.len().to_string(),

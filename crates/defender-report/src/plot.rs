@@ -14,7 +14,7 @@ use crate::error::{Result, io_err};
 use crate::figure::{file_safe, register_font, steps_label, write_figure};
 use crate::run::{DefenderSettings, Run};
 use crate::stats::rolling_mean;
-use crate::{tradeoff, windows};
+use crate::{crashes_vs_eval, tradeoff, windows};
 
 /// One seed's curve: steps and values.
 type Curve = (Vec<f64>, Vec<f64>);
@@ -50,11 +50,15 @@ pub enum PlotKind {
     CrashRate,
     /// (c) Evaluation return (`eval.csv`) vs steps (`*_eval`).
     Evaluation,
+    /// (d) Crashes so far vs environment steps (filtered steps not counted) (`*_crashes`): the
+    /// field's cumulative count of violations.
+    Crashes,
 }
 
 impl PlotKind {
     /// All kinds, in file order.
-    pub const ALL: [PlotKind; 3] = [PlotKind::Return, PlotKind::CrashRate, PlotKind::Evaluation];
+    pub const ALL: [PlotKind; 4] =
+        [PlotKind::Return, PlotKind::CrashRate, PlotKind::Evaluation, PlotKind::Crashes];
 
     /// The file-name suffix.
     pub fn suffix(self) -> &'static str {
@@ -62,6 +66,7 @@ impl PlotKind {
             PlotKind::Return => "return",
             PlotKind::CrashRate => "crash",
             PlotKind::Evaluation => "eval",
+            PlotKind::Crashes => "crashes",
         }
     }
 }
@@ -174,7 +179,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             let chart = Chart {
                 title: title(env, algo, *budget, kind),
                 y_label: y_label(kind, options),
-                y_from: (kind == PlotKind::CrashRate).then_some(0.0),
+                y_from: matches!(kind, PlotKind::CrashRate | PlotKind::Crashes).then_some(0.0),
                 x_from: None,
                 markers: kind == PlotKind::Evaluation,
                 bands,
@@ -232,6 +237,23 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             &dir.join(format!("{stem}_tradeoff")),
             (options.width, options.height),
         )?);
+        let arms = by_filter
+            .iter()
+            .enumerate()
+            .map(|(i, (key, seeds))| crashes_vs_eval::Arm::of(label(*key, seeds.len()), color_of(i), seeds))
+            .collect();
+        let figure = crashes_vs_eval::CrashesVsEval {
+            title: format!(
+                "{env}, {}, {budget}: crashes and last-10 evaluation",
+                crate::run::algo_display(algo)
+            ),
+            arms,
+        };
+        plots.files.extend(write_figure(
+            &figure,
+            &dir.join(format!("{stem}_crashes_vs_eval")),
+            (options.width, options.height),
+        )?);
     }
     Ok(plots)
 }
@@ -241,6 +263,7 @@ fn title(env: &str, algo: &str, budget: Budget, kind: PlotKind) -> String {
         PlotKind::Return => "training episode return",
         PlotKind::CrashRate => "cumulative crash rate",
         PlotKind::Evaluation => "evaluation return",
+        PlotKind::Crashes => "crashes against environment steps",
     };
     format!("{env}, {}, {budget}: {what}", crate::run::algo_display(algo))
 }
@@ -253,6 +276,7 @@ fn y_label(kind: PlotKind, options: &PlotOptions) -> String {
         PlotKind::Return => "episode return".into(),
         PlotKind::CrashRate => "crashed episodes so far (%)".into(),
         PlotKind::Evaluation => "mean evaluation return".into(),
+        PlotKind::Crashes => "crashes so far (x: steps that reached the environment)".into(),
     }
 }
 
@@ -281,5 +305,6 @@ fn curve(run: &Run, kind: PlotKind, options: &PlotOptions) -> (Vec<f64>, Vec<f64
             run.evaluations.iter().map(|e| e.total_steps as f64).collect(),
             run.evaluations.iter().map(|e| e.mean_return).collect(),
         ),
+        PlotKind::Crashes => run.cumulative_crashes().into_iter().map(|(s, c)| (s as f64, c as f64)).unzip(),
     }
 }

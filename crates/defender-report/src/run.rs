@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::csv::CsvFile;
 use crate::error::{ReportError, Result};
+pub use crate::label::algo_display;
+pub(crate) use crate::label::{RawAgent, algo_label, label_parts};
 
 /// The four files of a run directory.
 pub const CONFIG_FILE: &str = "config.toml";
@@ -139,6 +141,10 @@ pub struct Summary {
     pub steps_per_second: f64,
     /// `false` while the run is in progress or after it was stopped.
     pub complete: bool,
+    /// Violations counted as the field counts them (absent, all zero, in summaries written
+    /// before they existed; `defender report` computes them from `metrics.csv`).
+    #[serde(flatten, default)]
+    pub violations: crate::violations::Violations,
     /// How the strategy was chosen, for a run configured with `strategy = "auto"`; absent
     /// otherwise. The same record as `config.toml`'s `[defender.selection]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -184,11 +190,18 @@ pub struct StrategySelection {
 }
 
 impl Summary {
-    /// Sets `episodes`, `crash_pct`, `filtered_pct` and `steps_per_second` from the outcomes of the
-    /// training episodes and the `steps` and `wall_seconds` already set, as [`Run::load`] checks them.
-    pub fn count(&mut self, outcomes: impl IntoIterator<Item = Outcome>) {
+    /// Sets `episodes`, `crash_pct`, `filtered_pct`, `violations` and `steps_per_second` from the
+    /// outcomes and costs of the training episodes and the `steps` and `wall_seconds` already set, as [`Run::load`] checks them.
+    /// `costs`: the episodes' costs, for [`Summary::violations`].
+    pub fn count(&mut self, outcomes: impl IntoIterator<Item = (Outcome, f64)>) {
         let mut counts = OutcomeCounts::default();
-        outcomes.into_iter().for_each(|o| counts.add(o));
+        let mut cost = 0.0;
+        outcomes.into_iter().for_each(|(o, c)| {
+            counts.add(o);
+            cost += c;
+        });
+        self.violations =
+            crate::violations::Violations::new(counts.crashed, cost, self.steps, self.filtered_steps);
         self.episodes = counts.episodes;
         self.crash_pct = counts.crash_pct();
         self.filtered_pct = counts.filtered_pct();
@@ -487,85 +500,25 @@ fn parse_summary(path: &Path, value: serde_json::Value) -> Result<Summary> {
 }
 
 #[derive(Deserialize)]
-struct RawConfig {
-    env: String,
-    algo: String,
-    seed: u64,
-    total_steps: u64,
-    total_episodes: u64,
-    defender: Option<RawDefender>,
+pub(crate) struct RawConfig {
+    pub(crate) env: String,
+    pub(crate) algo: String,
+    pub(crate) seed: u64,
+    pub(crate) total_steps: u64,
+    pub(crate) total_episodes: u64,
+    pub(crate) defender: Option<RawDefender>,
     #[serde(default)]
-    profile: Option<String>,
+    pub(crate) profile: Option<String>,
     #[serde(default)]
-    sac: Option<RawAgent>,
+    pub(crate) sac: Option<RawAgent>,
     #[serde(default)]
-    td3: Option<RawAgent>,
-}
-
-/// What sets an agent apart in a report: the authors' demonstrations in its buffer and cloning.
-#[derive(Deserialize, Default)]
-struct RawAgent {
+    pub(crate) td3: Option<RawAgent>,
     #[serde(default)]
-    demos_in_replay: Option<bool>,
-    #[serde(default)]
-    bc_weight: Option<f64>,
-}
-
-/// A row's algorithm label as tables and plots print it: the algorithm in capitals, what sets
-/// the run apart as written (`SAC (demos+BC, margin0.02+own50)`).
-pub fn algo_display(label: &str) -> String {
-    match label_parts(label) {
-        (algo, Some(tags)) => format!("{} ({tags})", algo.to_uppercase()),
-        (algo, None) => algo.to_uppercase(),
-    }
-}
-
-/// A row's algorithm label (`algo_label`) taken apart: the algorithm (`sac`) and what sets the
-/// run apart, if anything (`demos+BC, margin0.02+own50`).
-pub(crate) fn label_parts(label: &str) -> (&str, Option<&str>) {
-    match label.split_once(" (") {
-        Some((algo, tags)) => (algo, Some(tags.strip_suffix(')').unwrap_or(tags))),
-        None => (label, None),
-    }
-}
-
-/// The algorithm as a report row names it: `sac`, or with what sets the run apart from its
-/// profile's agent and filter in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac
-/// (authors, no demos)`, `sac (keeps-learning)`, `sac (demos+BC, margin0.02+own50)`), so that the
-/// arms of an experiment (docs/experiments.md) form rows of their own, and runs whose filters
-/// decide differently never share a row.
-fn algo_label(raw: &RawConfig) -> String {
-    let profile = raw.profile.as_deref().unwrap_or("spec");
-    let agent = raw.sac.as_ref().or(raw.td3.as_ref());
-    let demos = agent.and_then(|a| a.demos_in_replay).unwrap_or(false);
-    let bc = agent.and_then(|a| a.bc_weight).is_some_and(|w| w > 0.0);
-    let mut tags: Vec<String> = Vec::new();
-    if profile != "spec" {
-        tags.push(profile.to_string());
-    }
-    // The authors' and keeps-learning profiles give a DEFENDER run the demonstrations; anything
-    // else is worth naming.
-    let expected = profile != "spec" && raw.defender.is_some();
-    match (demos, expected) {
-        (true, false) => tags.push(if bc { "demos+BC" } else { "demos" }.into()),
-        (false, true) => tags.push("no demos".into()),
-        _ => {}
-    }
-    if let Some(d) = &raw.defender {
-        let expected = if profile == "keeps-learning" {
-            FilterOptions::keeps_learning()
-        } else {
-            FilterOptions::default()
-        };
-        if d.filter != expected {
-            tags.push(d.filter.label());
-        }
-    }
-    if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
+    pub(crate) safety: Option<toml::Table>,
 }
 
 #[derive(Deserialize)]
-struct RawDefender {
+pub(crate) struct RawDefender {
     strategy: String,
     mode: String,
     num_demos: Option<u64>,
@@ -573,7 +526,7 @@ struct RawDefender {
     #[serde(default)]
     cost: RawCost,
     #[serde(default)]
-    filter: FilterOptions,
+    pub(crate) filter: FilterOptions,
 }
 
 #[derive(Deserialize, Default)]

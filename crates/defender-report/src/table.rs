@@ -32,8 +32,13 @@ pub struct Row {
     /// Last-10 eval: the mean return of each run's last 10 evaluations
     /// ([`Run::last_evaluations`]).
     pub last_evaluations: Estimate,
-    /// % Crash: crashed / all training episodes x 100.
+    /// % Crash: crashed / all training episodes x 100 (the paper's measure).
     pub crash_pct: Estimate,
+    /// Crashes: crashed training episodes over the run (the field's count).
+    pub crashes: Estimate,
+    /// Crashes per 1,000 environment steps of training (filtered steps are not environment
+    /// steps: crate::violations).
+    pub crashes_per_1k: Estimate,
     /// Standing %: the share of each run's evaluations in which the agent stood still
     /// ([`Run::standing_pct`]); `None` for a task whose horizon the report does not know.
     pub standing_pct: Option<Estimate>,
@@ -125,12 +130,16 @@ impl Table {
                 Some(acc_reward),
                 Some(last_evaluations),
                 Some(crash_pct),
+                Some(crashes),
+                Some(crashes_per_1k),
                 Some(filtered_pct),
                 Some(wall_seconds),
             ) = (
                 Estimate::of(&values(&|r| r.acc_reward())),
                 Estimate::of(&values(&|r| r.last_evaluations())),
                 Estimate::of(&values(&|r| r.summary.crash_pct)),
+                Estimate::of(&values(&|r| r.violations().crashes as f64)),
+                Estimate::of(&values(&|r| r.violations().crashes_per_1k_env_steps)),
                 Stat::of(&values(&|r| r.summary.filtered_pct)),
                 Stat::of(&values(&|r| r.summary.wall_seconds)),
             )
@@ -147,6 +156,8 @@ impl Table {
                 best_episode: Estimate::of(&some(&|r| r.best_episode())),
                 last_evaluations,
                 crash_pct,
+                crashes,
+                crashes_per_1k,
                 standing_pct: Estimate::of(&some(&|r| r.standing_pct())),
                 filtered_pct,
                 wall_seconds,

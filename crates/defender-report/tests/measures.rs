@@ -70,8 +70,8 @@ fn standing_is_the_share_of_evaluations_at_the_horizon_with_return_near_length()
         let row = md[at..].lines().find(|l| l.starts_with("| SAC")).unwrap();
         row.split('|').map(str::trim).filter(|c| !c.is_empty()).map(String::from).collect::<Vec<_>>()
     };
-    assert_eq!(line("Hopper-v5")[7], "40 ± 0.0 [40, 40]", "{md}");
-    assert_eq!(line("Ant-v5")[7], "-", "{md}");
+    assert_eq!(line("Hopper-v5")[9], "40 ± 0.0 [40, 40]", "{md}");
+    assert_eq!(line("Ant-v5")[9], "-", "{md}");
     let csv = render(&table, Format::Csv);
     let header: Vec<&str> = CSV_HEADER.split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
@@ -192,4 +192,29 @@ fn the_bootstrap_interval_covers_the_true_mean_about_95_percent_of_the_time() {
     }
     let rate = covered as f64 / trials as f64;
     assert!((0.86..=0.98).contains(&rate), "coverage {rate}");
+}
+
+#[test]
+fn crashes_are_counted_over_the_run_and_per_environment_step_without_filtered_steps() {
+    let root = tempfile::tempdir().unwrap();
+    // 10 episodes of 100 steps: 3 crashed, 5 filtered (their last step never reached the
+    // environment), 2 truncated; a file without the cost column (crashes cost 1).
+    let dir = RunSpec::new("sac", 0, A).outcomes(10, 3, 5).write(root.path());
+    let run = load(&dir);
+    let v = run.violations();
+    assert_eq!((v.crashes, v.env_steps, v.cost), (3, 995, 3.0));
+    assert!((v.crashes_per_1k_env_steps - 3000.0 / 995.0).abs() < 1e-12);
+    // The cumulative curve: the crashes come first; each filtered episode takes a step off.
+    let curve = run.cumulative_crashes();
+    assert_eq!(curve[2], (300, 3));
+    assert_eq!(curve[7], (795, 3));
+    assert_eq!(curve[9], (995, 3));
+    let table = Table::from_runs(&[run]);
+    let csv = render(&table, Format::Csv);
+    let header: Vec<&str> = CSV_HEADER.split(',').collect();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    let col = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
+    assert_eq!(col("crashes_mean"), "3");
+    assert_eq!(col("crash_pct_mean"), "30");
+    assert!(render(&table, Format::Markdown).contains("Crashes / 1k env steps"));
 }

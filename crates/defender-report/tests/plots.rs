@@ -19,7 +19,7 @@ fn plots_are_written_as_png_and_svg() {
     names.sort();
     let mut expected = Vec::new();
     for algo in ["sac", "td3"] {
-        for kind in ["crash", "eval", "return", "tradeoff", "windows"] {
+        for kind in ["crash", "crashes", "crashes_vs_eval", "eval", "return", "tradeoff", "windows"] {
             for ext in ["png", "svg"] {
                 expected.push(format!("Hopper-v5_{algo}_{kind}.{ext}"));
             }
@@ -122,10 +122,13 @@ fn a_single_episode_run_is_drawn_with_markers() {
     RunSpec::new("sac", 0, A).outcomes(1, 1, 0).write(root.path());
     let set = load_runs(&[root.path()]).unwrap();
     let plots = draw_plots(&set.runs, root.path().join("p"), &PlotOptions::default()).unwrap();
-    assert_eq!(plots.files.len(), 10);
+    assert_eq!(plots.files.len(), 14);
     assert!(plots.notes.is_empty());
     let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_eval.svg")).unwrap();
     assert!(svg.contains("<circle"), "{svg}");
+    // The seed's (crashes, last-10 evaluation) point and the arm's mean ring.
+    let svg = std::fs::read_to_string(root.path().join("p/Hopper-v5_sac_crashes_vs_eval.svg")).unwrap();
+    assert!(svg.matches("<circle").count() >= 2, "{svg}");
 }
 
 #[test]
@@ -150,7 +153,7 @@ fn the_arms_of_an_experiment_share_one_plot_per_task() {
     }
     let set = load_runs(&[root.path()]).unwrap();
     let plots = draw_plots(&set.runs, root.path().join("p"), &PlotOptions::default()).unwrap();
-    assert_eq!(plots.files.len(), 10, "{:?}", plots.files);
+    assert_eq!(plots.files.len(), 14, "{:?}", plots.files);
     assert!(
         plots.files.iter().all(|p| p.file_name().unwrap().to_string_lossy().starts_with("Hopper-v5_sac_"))
     );

@@ -577,8 +577,9 @@ impl TrainHooks {
             steps_per_second: 0.0,
             complete: final_eval.is_some(),
             selection: defender.and_then(|d| d.selection.clone()),
+            violations: Default::default(),
         };
-        summary.count(trainer.episodes().iter().map(EpisodeRecord::outcome));
+        summary.count(trainer.episodes().iter().map(|e| (e.outcome(), e.cost())));
         self.run_dir.write_summary(&summary)?;
         Ok(summary)
     }

@@ -1,0 +1,87 @@
+//! The algorithm label of a report row: the algorithm and what sets a run apart from its
+//! profile's agent and filter (demonstrations, filter options, a `[safety]` baseline), so that
+//! the arms of an experiment form rows of their own.
+
+use defender::FilterOptions;
+use serde::Deserialize;
+
+use crate::run::RawConfig;
+
+/// What sets an agent apart in a report: the authors' demonstrations in its buffer and cloning.
+#[derive(Deserialize, Default)]
+pub(crate) struct RawAgent {
+    #[serde(default)]
+    demos_in_replay: Option<bool>,
+    #[serde(default)]
+    bc_weight: Option<f64>,
+}
+
+/// A row's algorithm label as tables and plots print it: the algorithm in capitals, what sets
+/// the run apart as written (`SAC (demos+BC, margin0.02+own50)`).
+pub fn algo_display(label: &str) -> String {
+    match label_parts(label) {
+        (algo, Some(tags)) => format!("{} ({tags})", algo.to_uppercase()),
+        (algo, None) => algo.to_uppercase(),
+    }
+}
+
+/// A row's algorithm label (`algo_label`) taken apart: the algorithm (`sac`) and what sets the
+/// run apart, if anything (`demos+BC, margin0.02+own50`).
+pub(crate) fn label_parts(label: &str) -> (&str, Option<&str>) {
+    match label.split_once(" (") {
+        Some((algo, tags)) => (algo, Some(tags.strip_suffix(')').unwrap_or(tags))),
+        None => (label, None),
+    }
+}
+
+/// The algorithm as a report row names it: `sac`, or with what sets the run apart from its
+/// profile's agent and filter in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac
+/// (authors, no demos)`, `sac (keeps-learning)`, `sac (demos+BC, margin0.02+own50)`), so that the
+/// arms of an experiment (docs/experiments.md) form rows of their own, and runs whose filters
+/// decide differently never share a row.
+pub(crate) fn algo_label(raw: &RawConfig) -> String {
+    let profile = raw.profile.as_deref().unwrap_or("spec");
+    let agent = raw.sac.as_ref().or(raw.td3.as_ref());
+    let demos = agent.and_then(|a| a.demos_in_replay).unwrap_or(false);
+    let bc = agent.and_then(|a| a.bc_weight).is_some_and(|w| w > 0.0);
+    let mut tags: Vec<String> = Vec::new();
+    if profile != "spec" {
+        tags.push(profile.to_string());
+    }
+    // The authors' and keeps-learning profiles give a DEFENDER run the demonstrations; anything
+    // else is worth naming.
+    let expected = profile != "spec" && raw.defender.is_some();
+    match (demos, expected) {
+        (true, false) => tags.push(if bc { "demos+BC" } else { "demos" }.into()),
+        (false, true) => tags.push("no demos".into()),
+        _ => {}
+    }
+    if let Some(d) = &raw.defender {
+        let expected = if profile == "keeps-learning" {
+            FilterOptions::keeps_learning()
+        } else {
+            FilterOptions::default()
+        };
+        if d.filter != expected {
+            tags.push(d.filter.label());
+        }
+    }
+    if let Some(safety) = &raw.safety {
+        tags.push(safety_tag(safety));
+    }
+    if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
+}
+
+/// A `[safety]` baseline as a row names it, with its knobs: `penalty 100`, `lagrangian d=0.1`,
+/// `recovery eps=0.3 g=0.8`.
+fn safety_tag(safety: &toml::Table) -> String {
+    let num =
+        |key: &str| safety.get(key).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
+    let show = |key: &str| num(key).map_or_else(|| "?".to_string(), |v| format!("{v}"));
+    match safety.get("method").and_then(toml::Value::as_str).unwrap_or("?") {
+        "penalty" => format!("penalty {}", show("penalty")),
+        "lagrangian" => format!("lagrangian d={}", show("cost_limit")),
+        "recovery" => format!("recovery eps={} g={}", show("eps_risk"), show("gamma_risk")),
+        other => other.to_string(),
+    }
+}
