@@ -53,7 +53,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub demos: Option<PathBuf>,
     /// Demonstrations used per group (the first N safe and the first N unsafe of the file).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_usize)]
     pub num_demos: Option<usize>,
     /// Trajectory elements: states, or state-action pairs.
     #[arg(long, value_parser = parse_mode)]
@@ -72,7 +72,7 @@ pub struct TrainArgs {
     /// The agent's own episodes join the demonstrations (its crashes the unsafe group, episodes
     /// that reach the horizon the safe one), at most K per group, the oldest replaced
     /// ([defender.filter.own_episodes] keep).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = crate::run_inputs::toml_usize)]
     pub own_episodes: Option<usize>,
     /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
     /// updates: same results bit for bit, less wall time when a core is free
@@ -87,23 +87,23 @@ pub struct TrainArgs {
     #[arg(long)]
     pub dynamics_spec_schedule: bool,
     /// Budget in training episodes.
-    #[arg(long, conflicts_with = "steps")]
+    #[arg(long, conflicts_with = "steps", value_parser = crate::run_inputs::toml_u64)]
     pub episodes: Option<u64>,
     /// Budget in environment steps.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
     pub steps: Option<u64>,
     /// Seed of every random stream of the run.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
     pub seed: Option<u64>,
     /// Evaluate the deterministic policy every N steps (0: only at the end).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
     pub eval_freq: Option<u64>,
     /// Checkpoint every N training episodes (0: only by time, at the end and on a stop signal).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
     pub checkpoint_every: Option<u64>,
     /// Checkpoint at the first episode end N wall-clock seconds after the last one [default: 120;
     /// 0: never by time].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
     pub checkpoint_seconds: Option<u64>,
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
@@ -173,7 +173,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     // The profile again, now that the flags may have set the algorithm or a strategy: it fills
     // what the file (or nothing) gave, never a key the file set.
     let mut given = match &args.config {
-        Some(path) => toml::from_str(&std::fs::read_to_string(path)?)?,
+        Some(path) => toml::from_str(&defender_io::read_input_to_string(path)?)?,
         None => toml::Table::new(),
     };
     if let Some(profile) = args.profile {
@@ -218,7 +218,8 @@ fn given_by_flags(given: &mut toml::Table, args: &TrainArgs) {
 /// from `--algo`, else `sac`) filled in before it is read, so that `--config base.toml --env
 /// Hopper-v5` works; flags then override the rest ([`apply_flags`]).
 fn read_partial_config(path: &Path, args: &TrainArgs) -> Result<RunConfig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        defender_io::read_input_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut table: toml::Table = toml::from_str(&text)
         .with_context(|| format!("{}: not a valid run configuration", path.display()))?;
     if !table.contains_key("env") {
@@ -339,11 +340,13 @@ fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
 /// Runs `defender train`.
 pub fn run(args: TrainArgs) -> Result<()> {
     let stop = StopRequest::install()?;
+    // A new run is resolved, and what it reads and writes checked, before its directory exists.
+    let requested = if args.resume { None } else { Some(crate::run_inputs::check(resolve(&args)?, &args)?) };
     let _lock = run_dir::claim(&args.out)?;
     let checkpoint_dir = args.out.join("checkpoint");
     let has_checkpoint = defender_io::resolve_dir(&checkpoint_dir).is_some();
     let mut config = if args.resume {
-        resumed_config(&args)?
+        crate::run_inputs::check(resumed_config(&args)?, &args)?
     } else {
         if has_checkpoint || args.out.join("summary.json").exists() {
             bail!(
@@ -351,17 +354,14 @@ pub fn run(args: TrainArgs) -> Result<()> {
                 args.out.display()
             );
         }
-        resolve(&args)?
+        requested.map_or_else(|| resolve(&args), Ok)?
     };
     let resuming = args.resume && has_checkpoint;
     if args.resume && !has_checkpoint {
-        eprintln!(
-            "{}: no checkpoint yet (stopped before its first one); starting the run again from its config.toml",
-            args.out.display()
-        );
+        crate::resumable::restart_or_refuse(&args.out, &config)?;
     }
     for warning in defender_config::inert::warnings(&config) {
-        eprintln!("warning: {warning}");
+        note!("warning: {warning}");
     }
     let built = setup::build(&config)?;
     // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
@@ -426,7 +426,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         trainer.agent().save_actor(&actor).with_context(|| format!("cannot save {}", actor.display()))?;
         if let (Some(path), Some(recorder)) = (&config.record_episodes, hooks.recorder.take()) {
             recorder.save(path)?;
-            eprintln!("recorded {} training episodes into {}", recorder.len(), path.display());
+            note!("recorded {} training episodes into {}", recorder.len(), path.display());
         }
     }
     print_summary(&args.out, &summary, matches!(end, RunEnd::Stopped));
@@ -458,7 +458,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 fn print_summary(out: &Path, s: &Summary, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
     let what = s.strategy.map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
-    println!(
+    say!(
         "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
         s.algo,
@@ -471,9 +471,9 @@ fn print_summary(out: &Path, s: &Summary, stopped: bool) {
         s.wall_seconds
     );
     if stopped {
-        println!("stopped; continue with: defender train --out {} --resume", out.display());
+        say!("stopped; continue with: defender train --out {} --resume", out.display());
     } else {
-        println!("run directory: {}", out.display());
+        say!("run directory: {}", out.display());
     }
 }
 
