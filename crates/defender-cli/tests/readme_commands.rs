@@ -97,12 +97,19 @@ fn every_readme_command_runs_or_at_least_parses() {
                     args.push(if args[0] == "sweep" { "--list" } else { "--help" }.to_string());
                 }
                 let out = defender(cwd, &args);
-                let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+                let text = format!(
+                    "{}{}",
+                    String::from_utf8_lossy(&out.stdout),
+                    String::from_utf8_lossy(&out.stderr)
+                );
                 assert!(out.status.success(), "README: `{command}` (run as {args:?}) failed:\n{text}");
             }
             "make" => {
                 for target in w[1..].iter().filter(|t| !t.contains('=')) {
-                    assert!(makefile.contains(&format!("\n{target}:")), "README: `{command}`: no target {target}");
+                    assert!(
+                        makefile.contains(&format!("\n{target}:")),
+                        "README: `{command}`: no target {target}"
+                    );
                 }
             }
             // Installing is what `make test-wheel` checks, in a fresh venv.
