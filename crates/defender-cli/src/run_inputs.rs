@@ -100,7 +100,7 @@ fn inputs(config: &RunConfig, args: &TrainArgs) -> Result<Vec<(&'static str, Pat
 pub fn check(config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     let tasks = crate::setup::task_ids();
     if !tasks.contains(&config.env.as_str()) {
-        bail!("--env {}: unknown task; one of {} (`defender env list`)", config.env, tasks.join(", "));
+        bail!("--env {}: unknown task; known ids: {} (`defender env list`)", config.env, tasks.join(", "));
     }
     let inputs = inputs(&config, args)?;
     let mut outputs: Vec<(String, PathBuf)> =
