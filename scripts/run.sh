@@ -26,12 +26,14 @@ if [ -e "$RUN_DIR" ]; then
 fi
 mkdir -p "$RUN_DIR"
 echo "== training SAC on $ENV_ID for $STEPS steps: bare, and with DEFENDER $STRATEGY (in parallel) =="
-# One network thread per run: two runs use the two cores without contending (DESIGN.md).
+# One network thread per run: two runs use the two cores without contending (docs/architecture.md, "One run, one core").
 export DEFENDER_NN_THREADS=1
 common=(--env "$ENV_ID" --algo sac --steps "$STEPS" --seed "$SEED" --eval-freq "$EVAL_FREQ")
-"$BIN" train "${common[@]}" --out "$RUN_DIR/sac-bare-s$SEED" &
+# Both runs print to this terminal: each line of their stderr (progress, warnings) is labelled.
+"$BIN" train "${common[@]}" --out "$RUN_DIR/sac-bare-s$SEED" 2> >(sed -u 's/^/[bare] /' >&2) &
 bare=$!
-"$BIN" train "${common[@]}" --strategy "$STRATEGY" --out "$RUN_DIR/sac-defender-s$SEED" &
+"$BIN" train "${common[@]}" --strategy "$STRATEGY" --out "$RUN_DIR/sac-defender-s$SEED" \
+  2> >(sed -u 's/^/[defender] /' >&2) &
 defended=$!
 wait "$bare"
 wait "$defended"

@@ -76,6 +76,41 @@ def warn_short_safe(demos: Any, horizon: int | None, what: str, num_demos: int |
         )
 
 
+def demos_horizon(demos: Any, num_demos: int | None = None) -> int | None:
+    """The horizon the demonstrations were made with: their longest safe episode (the first
+    ``num_demos`` safe ones when given), as the filter's own-episode rule reads it."""
+    lengths, used = [], 0
+    for i in range(len(demos)):
+        e = demos.episode(i)
+        if e["crashed"]:
+            continue
+        used += 1
+        if num_demos is not None and used > num_demos:
+            break
+        lengths.append(len(e["rew"]))
+    return max(lengths) if lengths else None
+
+
+def warn_time_limit(env: gym.Env, demos: Any, what: str, num_demos: int | None = None, stacklevel: int = 3) -> None:
+    """Warns when the wrapped environment's own time limit differs from the horizon the
+    demonstrations were made with: its truncated episodes are then not what a safe one is."""
+    limit = env.spec.max_episode_steps if env.spec is not None else None
+    horizon = demos_horizon(demos, num_demos)
+    if limit and horizon and int(limit) != horizon:
+        effect = (
+            "its episodes truncated before that are not safe and never join the safe group"
+            if limit < horizon
+            else "its episodes run longer than any safe demonstration"
+        )
+        warnings.warn(
+            f"{what}: the wrapped environment's time limit (max_episode_steps={limit}) differs from the "
+            f"horizon the demonstrations were made with ({horizon} steps, their longest safe episode): "
+            f"{effect}. Use the task's own time limit, or demonstrations made with this one",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+
+
 def warn_left_out(what: str, lengths: list[int], horizon: int | None, stacklevel: int = 3) -> None:
     """Warns that episodes neither crashed nor reached the horizon and were left out."""
     if lengths:

@@ -6,6 +6,8 @@ import json
 import math
 import os
 import pickle
+import sys
+import time
 import warnings
 from typing import Any, Mapping, SupportsFloat
 
@@ -14,7 +16,7 @@ import numpy as np
 
 from ._core import Core, DefenderError, EpisodeSet, profile_filter
 from ._args import I64_MAX, U64_MAX, whole
-from .horizon import env_horizon, warn_short_safe
+from .horizon import env_horizon, warn_short_safe, warn_time_limit
 
 #: The keys :class:`DefenderWrapper` adds to every step's ``info`` (flat scalars, so that SB3's
 #: ``Monitor(info_keywords=...)`` and vector environments carry them).
@@ -56,17 +58,31 @@ def _warn_statistics_inside(env: gym.Env) -> None:
         e = getattr(e, "env", None) if isinstance(e, gym.Wrapper) else None
 
 
+def _progress_on() -> bool:
+    """Progress lines are on unless ``DEFENDER_PROGRESS_INTERVAL`` is ``off`` (as for the CLI)."""
+    return os.environ.get("DEFENDER_PROGRESS_INTERVAL", "").strip().lower() not in ("off", "none")
+
+
+def _say(line: str) -> None:
+    """A progress line on stderr; a stderr that cannot be written loses it, nothing more."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+
+
 def _check_box(space: gym.Space, what: str) -> gym.spaces.Box:
+    # Gymnasium flattens observations (FlattenObservation); actions have no such wrapper, and a
+    # discrete action cannot feed DEFENDER's dynamics model: the advice differs.
+    if what == "observation space":
+        fix = "flatten it first (gymnasium.wrappers.FlattenObservation)"
+    else:
+        fix = ("DEFENDER needs continuous actions: a discrete or composite action space is not "
+               "supported (wrap the environment so that it takes a 1-D float Box action)")
     if not isinstance(space, gym.spaces.Box):
-        raise TypeError(
-            f"DefenderWrapper needs a gymnasium.spaces.Box {what}, got {type(space).__name__} "
-            f"({space}); flatten or rescale the environment first (e.g. gymnasium.wrappers.FlattenObservation)"
-        )
+        raise TypeError(f"DefenderWrapper needs a gymnasium.spaces.Box {what}, got {type(space).__name__} ({space}); {fix}")
     if len(space.shape) != 1:
-        raise TypeError(
-            f"DefenderWrapper needs a 1-D Box {what}, got shape {space.shape}; "
-            "flatten it first (gymnasium.wrappers.FlattenObservation)"
-        )
+        raise TypeError(f"DefenderWrapper needs a 1-D Box {what}, got shape {space.shape}; {fix}")
     if not np.issubdtype(space.dtype, np.floating):
         raise TypeError(f"DefenderWrapper needs a floating-point Box {what}, got dtype {space.dtype}")
     return space
@@ -279,6 +295,13 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         if isinstance(demos, (str, os.PathLike)):
             demos = os.fspath(demos)
         env_id = env.spec.id if env.spec is not None else None
+        # The selection takes tens of seconds: say so, as `defender train --strategy auto` does.
+        announce = strategy == "auto" and _progress_on()
+        if announce:
+            _say("DefenderWrapper: strategy='auto': ranking the strategies on the demonstrations by "
+                 "leave-one-out, as `defender select` does (about half a minute per scaling for 50 + 50 "
+                 "Hopper-v5 demonstrations on two cores; DEFENDER_PROGRESS_INTERVAL=off: silent) ...")
+        started = time.monotonic()
         self._core = Core(
             env,
             env_id,
@@ -298,6 +321,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             bool(check_finite),
             filter_json,
         )
+        if announce:
+            _say(f"DefenderWrapper: strategy='auto' chose {self.strategy} in {time.monotonic() - started:.0f} s")
         self._check_horizon(demos, env, num_demos)
         # DynamicsConfig's default learning_starts is 1 (crates/defender/src/dynamics.rs).
         self._dynamics_learning_starts = int(dict(dynamics or {}).get("learning_starts", 1))
@@ -311,6 +336,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             demos = EpisodeSet.from_arrays(**demos)
         if isinstance(demos, EpisodeSet):
             warn_short_safe(demos, env_horizon(env), "DefenderWrapper", num_demos=num_demos, stacklevel=4)
+            warn_time_limit(env, demos, "DefenderWrapper", num_demos=num_demos, stacklevel=4)
 
     # -- Gymnasium API ------------------------------------------------------------------------
 

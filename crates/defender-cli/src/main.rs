@@ -1,11 +1,18 @@
 //! The `defender` command line: collect demonstrations, train agents with and without DEFENDER,
 //! rank the 576 filtering strategies offline, report the paper's tables and plots, and measure.
+// Printing goes through `output` (`say!`, `put!`, `note!`), which never panics.
+#![warn(clippy::print_stdout, clippy::print_stderr)]
+
+#[macro_use]
+mod output;
 
 mod commands;
 mod cost_meter;
 mod demo_horizon;
 mod progress;
+mod resumable;
 mod run_dir;
+mod run_inputs;
 mod safety_agent;
 mod setup;
 mod signals;
@@ -77,13 +84,18 @@ fn main() -> std::process::ExitCode {
         Command::Select(args) => commands::select::run(args),
     };
     match result {
+        // The work is done and its files written; what it printed did not reach stdout.
+        Ok(()) if output::stdout_error().is_some() => {
+            note!("error: cannot write to standard output: {}", output::stdout_error().unwrap_or_default());
+            std::process::ExitCode::FAILURE
+        }
         Ok(()) => std::process::ExitCode::SUCCESS,
         // A run stopped by a signal has said so; it exits as the signal's convention says.
         Err(err) if err.downcast_ref::<signals::Stopped>().is_some() => {
             std::process::ExitCode::from(err.downcast_ref::<signals::Stopped>().map_or(1, |s| s.code))
         }
         Err(err) => {
-            eprintln!("error: {}", describe(&err));
+            note!("error: {}", describe(&err));
             std::process::ExitCode::FAILURE
         }
     }

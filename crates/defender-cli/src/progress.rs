@@ -54,7 +54,7 @@ pub fn bar(total: u64, unit: &str) -> ProgressBar {
 fn interval() -> Option<Duration> {
     let Ok(text) = std::env::var(INTERVAL_VAR) else { return Some(DEFAULT_INTERVAL) };
     parse_interval(&text).unwrap_or_else(|| {
-        eprintln!(
+        note!(
             "warning: {INTERVAL_VAR}={text:?} is neither seconds (e.g. 30) nor `off`; using {}s",
             DEFAULT_INTERVAL.as_secs()
         );

@@ -171,15 +171,46 @@ impl RunDir {
     }
 }
 
+/// A run directory taken by this process ([`claim`]): its lock, and on drop, if nothing but the
+/// lock file is in it (a run that failed before writing anything), the lock file removed and the
+/// directory too if [`claim`] created it, so that a failed `defender train` leaves nothing behind.
+pub struct Claim {
+    dir: PathBuf,
+    created: bool,
+    _lock: defender_io::DirLock,
+}
+
+impl Drop for Claim {
+    fn drop(&mut self) {
+        let Ok(entries) = std::fs::read_dir(&self.dir) else { return };
+        let names: Vec<_> = entries.filter_map(|e| e.ok()).map(|e| e.file_name()).collect();
+        if names.iter().all(|n| n == defender_io::DirLock::FILE_NAME) {
+            let _ = std::fs::remove_file(self.dir.join(defender_io::DirLock::FILE_NAME));
+            if self.created {
+                let _ = std::fs::remove_dir(&self.dir);
+            }
+        }
+    }
+}
+
 /// Takes the run directory `out` for this process: creates it if needed, refuses a directory
 /// that holds something else than a run (it would be overwritten), and locks it exclusively, so
 /// that two processes never write one run. The lock lasts as long as the returned guard.
-pub fn claim(out: &Path) -> Result<defender_io::DirLock> {
+pub fn claim(out: &Path) -> Result<Claim> {
+    let created = !out.exists();
     if out.exists() {
         if !out.is_dir() {
             anyhow::bail!("--out {}: exists and is not a directory", out.display());
         }
-        let is_run = out.join(CONFIG_FILE).exists();
+        let config = out.join(CONFIG_FILE);
+        // A config.toml that is there but unreadable (a link to itself or to nowhere) is a run
+        // whose configuration is damaged, not a folder without one.
+        if std::fs::symlink_metadata(&config).is_ok()
+            && let Err(e) = std::fs::metadata(&config)
+        {
+            anyhow::bail!("{}: is there but cannot be read ({e}); repair or remove it", config.display());
+        }
+        let is_run = config.exists();
         let foreign: Vec<String> = std::fs::read_dir(out)
             .with_context(|| format!("cannot read {}", out.display()))?
             .filter_map(|e| e.ok())
@@ -197,7 +228,7 @@ pub fn claim(out: &Path) -> Result<defender_io::DirLock> {
         }
     }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create run directory {}", out.display()))?;
-    Ok(defender_io::DirLock::try_acquire(out)?)
+    Ok(Claim { dir: out.to_path_buf(), created, _lock: defender_io::DirLock::try_acquire(out)? })
 }
 
 /// Checks, before any work, that a file can be written at `path` (its folder exists and is

@@ -87,20 +87,7 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         bail!("a DEFENDER run takes its demonstrations from [defender] demos, not the top-level `demos` key");
     }
     let mut section = section.clone();
-    let path = match (section.demos.clone(), shipped_demos(env_id)) {
-        (Some(path), _) => path,
-        (None, Some(path)) if path.exists() => path,
-        (None, looked) => {
-            let looked = looked.map_or("an installed defender carries none".into(), |p| {
-                format!("looked for {}", p.display())
-            });
-            bail!(
-                "no demonstrations shipped for {env_id} ({looked}); give --demos FILE.npz (make one \
-                 with `defender demos collect --env {env_id} --out FILE.npz`), or set DEFENDER_DATA \
-                 to a folder holding demos/{env_id}.npz (the repository's data/)"
-            )
-        }
-    };
+    let path = demos_path(env_id, section.demos.as_deref())?;
     let sha256 = file_sha256(&path)?;
     if let Some(pinned) = &section.demos_sha256
         && *pinned != sha256
@@ -115,7 +102,7 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     if let Some(warning) =
         task.max_episode_steps().and_then(|h| crate::demo_horizon::warning(&demos, h, section.num_demos))
     {
-        eprintln!("warning: {}: {warning}", path.display());
+        note!("warning: {}: {warning}", path.display());
     }
     if section.strategy == StrategyChoice::Auto {
         let (strategy, scaling, record) = crate::commands::select::choose_for_run(
@@ -154,6 +141,28 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         costs: Some(costs),
         replay_demos: None,
     })
+}
+
+/// The demonstration file of a DEFENDER run on `env_id`: the one it names, else the one shipped
+/// for the task.
+///
+/// # Errors
+/// No file named and none shipped for the task.
+pub fn demos_path(env_id: &str, named: Option<&Path>) -> Result<PathBuf> {
+    match (named, shipped_demos(env_id)) {
+        (Some(path), _) => Ok(path.to_path_buf()),
+        (None, Some(path)) if path.exists() => Ok(path),
+        (None, looked) => {
+            let looked = looked.map_or("an installed defender carries none".into(), |p| {
+                format!("looked for {}", p.display())
+            });
+            bail!(
+                "no demonstrations shipped for {env_id} ({looked}); give --demos FILE.npz (make one \
+                 with `defender demos collect --env {env_id} --out FILE.npz`), or set DEFENDER_DATA \
+                 to a folder holding demos/{env_id}.npz (the repository's data/)"
+            )
+        }
+    }
 }
 
 /// A demonstration file and its SHA-256, refused if `pinned` names another content.
@@ -210,7 +219,8 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
 /// The SHA-256 of a file's bytes, as lower-case hex.
 pub fn file_sha256(path: &Path) -> Result<String> {
     use sha2::Digest;
-    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut file =
+        defender_io::open_input(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut hasher = sha2::Sha256::new();
     std::io::copy(&mut file, &mut hasher).with_context(|| format!("cannot read {}", path.display()))?;
     Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect())

@@ -212,7 +212,8 @@ pub fn strategy_slug(strategy: &str) -> String {
 /// file, the run and, where it can, the line, the key and the value. `tasks`: the task ids a run
 /// may name (the simulator's registry; this crate does not link it).
 pub fn load(path: &Path, tasks: &[&str]) -> Result<Experiment> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        defender_io::read_input_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let experiment =
         parse(&text, tasks).with_context(|| format!("{}: not a valid experiment", path.display()))?;
     // Each demonstration file is read once, for all the runs that use it.

@@ -3,6 +3,7 @@
 //! (a run that trained with two strategies would report only the second), and the checkpoint
 //! pins the configuration it was written with. Only the budget may grow, consistently.
 
+use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
@@ -103,7 +104,9 @@ pub fn check_pinned<T: serde::Serialize + serde::de::DeserializeOwned>(
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            eprintln!(
+            // A full or closed stderr must not stop the resume: the warning is dropped then.
+            let _ = writeln!(
+                std::io::stderr(),
                 "warning: {} has no pinned configuration (an older checkpoint); config.toml is trusted",
                 checkpoint.display()
             );

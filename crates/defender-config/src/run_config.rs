@@ -211,7 +211,8 @@ impl RunConfig {
 
 /// Reads a TOML run configuration, refusing unknown keys; its profile fills what it leaves out.
 pub fn read_config(path: &Path) -> Result<RunConfig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        defender_io::read_input_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     read_config_str(&text).with_context(|| format!("{}: not a valid run configuration", path.display()))
 }
 

@@ -1,5 +1,5 @@
 //! Streaming alignment: push one query element, read the cost of every view against every
-//! reference (SPEC section 3, DESIGN "The filter is incremental").
+//! reference (SPEC section 3, docs/architecture.md, "The filter is incremental").
 //!
 //! References are interleaved across SIMD lanes (`GROUP` per group) and right-aligned in columns
 //! `0..=M`, so the last `W` elements of every reference share columns `M-W+1..=M` and one vector

@@ -356,10 +356,10 @@ impl Core {
                 None => ChaCha8Rng::from_rng(&mut rand::rng()),
             };
             let env = DefenderEnv::new(inner, &demos, config, &mut rng).map_err(|e| {
-                DefenderError::new_err(format!(
-                    "DefenderWrapper: demonstrations {}: {e}",
-                    demos.source().display()
-                ))
+                // Errors about the file name it already (`PATH: array 'obs': ...`).
+                let (source, e) = (demos.source().display().to_string(), e.to_string());
+                let at = if e.contains(&source) { String::new() } else { format!(" {source}") };
+                DefenderError::new_err(format!("DefenderWrapper: demonstrations{at}: {e}"))
             })?;
             // The model's GEMMs run on the calling thread unless DEFENDER_NN_THREADS asks for
             // more: rayon's global pool does not survive fork(), and vector environments fork

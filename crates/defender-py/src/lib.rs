@@ -26,14 +26,18 @@ mod interrupt;
 mod select;
 mod turn;
 
+// Named as the package exports them (`defender_rl.DefenderError`), not as the extension module
+// that defines them: pickle finds a class by its module and name, and `_core` is not importable
+// on its own, so an error raised in a vector environment's worker process could not be sent back
+// (the parent would wait forever).
 create_exception!(
-    _core,
+    defender_rl,
     DefenderError,
     PyValueError,
     "Bad input to DEFENDER (demonstrations, strategy, dimensions, values, configuration); the message says what to fix."
 );
 create_exception!(
-    _core,
+    defender_rl,
     ResetNeeded,
     PyRuntimeError,
     "step() was called before reset(), or after the episode ended."

@@ -439,7 +439,7 @@ impl Run {
 }
 
 fn read(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| {
+    defender_io::read_input_to_string(path).map_err(|source| {
         if source.kind() == std::io::ErrorKind::NotFound {
             ReportError::MissingFile { path: path.to_path_buf() }
         } else {

@@ -83,6 +83,17 @@ pub(crate) fn running(dir: &Path, holder: Option<String>) -> SkippedRun {
     }
 }
 
+/// Why `path` cannot be read as a file when something is there under its name (a symbolic
+/// link to nowhere or to itself, a directory); `None` when it is absent or a readable file.
+pub(crate) fn unreadable(path: &Path) -> Option<String> {
+    std::fs::symlink_metadata(path).ok()?;
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => None,
+        Ok(_) => Some("not a regular file".into()),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
 /// The skip record of a run directory that nobody is writing and that is not complete:
 /// `summary.json` is missing, or says `"complete": false`.
 pub(crate) fn not_complete(dir: &Path) -> SkippedRun {
@@ -102,6 +113,8 @@ pub(crate) fn not_complete(dir: &Path) -> SkippedRun {
                  before its first one; {resume} starts it again from its {CONFIG_FILE})"
             ),
         )
+    } else if let Some(e) = unreadable(&dir.join(CONFIG_FILE)) {
+        (SkipKind::Broken, format!("broken ({summary}; its {CONFIG_FILE} is there but cannot be read: {e})"))
     } else {
         (
             SkipKind::Broken,

@@ -13,7 +13,7 @@
 //! older version is not lost; its next checkpoint has a manifest.
 
 use std::collections::BTreeMap;
-use std::io::Read;
+use std::io::{Read, Write as _};
 use std::path::{Component, Path, PathBuf};
 
 use crate::error::RlError;
@@ -129,7 +129,9 @@ pub fn verify(dir: &Path) -> Result<(), RlError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
             // A checkpoint of a version before manifests: refusing it would lose the run, so it
             // is accepted with a warning (its next checkpoint has a manifest).
-            eprintln!(
+            // A full or closed stderr must not stop the resume: the warning is dropped then.
+            let _ = writeln!(
+                std::io::stderr(),
                 "warning: {}: no manifest.json (a checkpoint written by an older defender), so its files \
                  cannot be verified; the next checkpoint will have one",
                 dir.display()

@@ -1,7 +1,7 @@
 //! The offline ablation (SPEC section 7): replay recorded episodes under many strategies at once
 //! and score each strategy by how much of the episodes it keeps and how many crashes it prevents.
 //!
-//! Work is shared three ways (DESIGN "The offline ablation shares work"): per recorded episode and
+//! Work is shared three ways (docs/architecture.md, "The offline ablation shares work"): per recorded episode and
 //! step, each group's stream computes the windowed costs of the windows any strategy needs once
 //! (at most 8 per demonstration); the 3 aggregations of each window give the per-group values of
 //! the 24 methods once; every strategy then only compares two of those numbers. Episodes run in

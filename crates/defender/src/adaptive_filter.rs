@@ -112,7 +112,9 @@ impl AdaptiveFilter {
 
     /// The episode ended with `outcome`: the budget moves the margin, and an episode that crashed
     /// or reached the horizon joins its group (own episodes on). A filtered episode joins no
-    /// group: nobody knows how it would have ended.
+    /// group: nobody knows how it would have ended. Nor does one truncated before the horizon the
+    /// demonstrations were made with (their longest safe one), by a time limit shorter than the
+    /// task's: it did not crash, but it is not safe by the rule the demonstrations follow.
     ///
     /// # Errors
     /// Rebuilding the groups failed (a DTW error for an unusable episode, e.g. non-finite).
@@ -129,6 +131,7 @@ impl AdaptiveFilter {
         let crashed = match outcome {
             Outcome::Filtered => return Ok(()),
             Outcome::Crashed => true,
+            Outcome::Truncated if self.recorder.len() < self.base.safe_horizon() => return Ok(()),
             Outcome::Truncated => false,
         };
         if self.recorder.is_empty() {

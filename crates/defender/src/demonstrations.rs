@@ -71,6 +71,8 @@ pub struct Demonstrations {
     safe_seqs: Arc<Vec<Vec<f32>>>,
     unsafe_seqs: Arc<Vec<Vec<f32>>>,
     min_reward: f32,
+    /// The longest safe demonstration, in transitions: the horizon the set was made with.
+    safe_horizon: usize,
 }
 
 impl Demonstrations {
@@ -113,6 +115,7 @@ impl Demonstrations {
             safe_seqs: Arc::new(safe),
             unsafe_seqs: Arc::new(unsafe_),
             min_reward,
+            safe_horizon: set.safe().map(|e| e.len()).max().unwrap_or(0),
         })
     }
 
@@ -164,6 +167,12 @@ impl Demonstrations {
         }
         let seqs = if crashed { &self.unsafe_seqs } else { &self.safe_seqs };
         Ok(CostStream::Recompute(Recompute::new(Arc::clone(seqs), self.element_dim(), windows, self.options)))
+    }
+
+    /// The longest safe demonstration of the set, in transitions: the horizon it was made with (a
+    /// safe demonstration reached the task's horizon; joined episodes leave it unchanged).
+    pub fn safe_horizon(&self) -> usize {
+        self.safe_horizon
     }
 
     /// The lowest per-step reward of the set (both groups): the default `R_task`.

@@ -228,7 +228,7 @@ impl DynamicsModel {
         &self.config
     }
 
-    /// Sets the threading of the network's GEMMs (DESIGN: a run is single-threaded by default;
+    /// Sets the threading of the network's GEMMs (docs/architecture.md, "One run, one core";
     /// the network starts with `defender-nn`'s default).
     pub fn set_parallelism(&mut self, parallelism: Parallelism) {
         self.net.set_parallelism(parallelism);

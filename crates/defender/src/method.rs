@@ -146,8 +146,13 @@ impl Method {
     }
 
     pub(crate) fn valid_forms() -> String {
+        format!("{} (e.g. MeanDemoW5)", Self::valid_forms_without_example())
+    }
+
+    /// [`Method::valid_forms`] without its example, for a message that gives one of its own.
+    pub(crate) fn valid_forms_without_example() -> String {
         format!(
-            "AGGREGATION followed by WINDOW, AGGREGATION one of Min, Max, Mean and WINDOW one of {} (e.g. MeanDemoW5)",
+            "AGGREGATION followed by WINDOW, AGGREGATION one of Min, Max, Mean and WINDOW one of {}",
             Window::ALL.iter().map(|w| w.name()).collect::<Vec<_>>().join(", ")
         )
     }

@@ -122,7 +122,7 @@ fn read_preamble(r: &mut impl Read) -> std::io::Result<Vec<u8>> {
 
 impl NpzReader {
     pub fn open(path: &Path) -> Result<Self> {
-        let file = File::open(path).map_err(|e| DefenderError::io(path, e))?;
+        let file = defender_io::open_input(path).map_err(|e| DefenderError::io(path, e))?;
         let file_len = file.metadata().map_err(|e| DefenderError::io(path, e))?.len();
         let zip = zip::ZipArchive::new(BufReader::new(file)).map_err(|e| DefenderError::Format {
             path: path.to_owned(),

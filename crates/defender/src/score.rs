@@ -178,7 +178,7 @@ pub fn write_csv_scored(path: impl AsRef<Path>, rows: &[AblationRow], scoring: S
 /// An I/O error, or a file without the header of SPEC section 9.
 pub fn csv_scoring(path: impl AsRef<Path>) -> Result<String> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(io_at(path))?;
+    let text = defender_io::read_input_to_string(path).map_err(io_at(path))?;
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     if !header.starts_with(CSV_HEADER) {
@@ -197,7 +197,7 @@ pub fn csv_scoring(path: impl AsRef<Path>) -> Result<String> {
 /// An I/O error, a wrong header, or a malformed row (naming the file and line).
 pub fn read_csv(path: impl AsRef<Path>) -> Result<Vec<AblationRow>> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(io_at(path))?;
+    let text = defender_io::read_input_to_string(path).map_err(io_at(path))?;
     let mut lines = text.lines();
     let format = |line: usize, what: String| DefenderError::Format {
         path: path.to_owned(),

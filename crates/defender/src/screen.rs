@@ -153,10 +153,11 @@ mod tests {
     use crate::filter_options::OwnEpisodes;
     use crate::strategy::Mode;
 
-    /// Demonstrations on a line: safe ones stay at 0, unsafe ones run to 10.
+    /// Demonstrations on a line: safe ones stay at 0 for the horizon of 4 steps, unsafe ones run
+    /// to 10.
     fn demos() -> Demonstrations {
         let mut set = EpisodeSet::new(1, 1, Meta::default()).unwrap();
-        set.push_episode(&[0.0; 6], &[0.0; 5], &[1.0; 5], false).unwrap();
+        set.push_episode(&[0.0; 5], &[0.0; 4], &[1.0; 4], false).unwrap();
         set.push_episode(&[0.0, 2.0, 4.0, 6.0, 8.0, 10.0], &[2.0; 5], &[0.0; 5], true).unwrap();
         Demonstrations::new(&set, Mode::State, CostOptions::default()).unwrap()
     }

@@ -78,8 +78,8 @@ impl FromStr for Strategy {
             kind: "strategy",
             name: s.to_owned(),
             valid: format!(
-                "SAFE/UNSAFE, each a method: {} (e.g. MeanDemoW5/MeanDemoW10)",
-                Method::valid_forms()
+                "SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10), each a method: {}",
+                Method::valid_forms_without_example()
             ),
         };
         let (safe, unsafe_) = s.split_once('/').ok_or_else(unknown)?;

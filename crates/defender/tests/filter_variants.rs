@@ -83,6 +83,23 @@ fn own_crashes_join_the_unsafe_group_up_to_keep() {
     assert!(d.unsafe_cost.is_finite());
 }
 
+#[test]
+fn own_episodes_cut_before_the_demonstrations_horizon_are_not_safe() {
+    // The safe demonstrations last 10 steps: that is the task's horizon they were made with.
+    let own = FilterOptions { own_episodes: Some(OwnEpisodes { keep: 5 }), ..Default::default() };
+    for (limit, joined) in [(4, 0), (10, 3)] {
+        let inner = defender_rl::TimeLimit::new(Line::new(), limit);
+        let cfg = DefenderConfig { filter: own, ..config("MinBothW5/MinBothW5") };
+        let mut e = DefenderEnv::new(inner, &line_demos(), cfg, &mut ChaCha8Rng::seed_from_u64(0)).unwrap();
+        for _ in 0..3 {
+            e.reset(None).unwrap();
+            while !e.step(&[0.0]).map(|s| s.terminated || s.truncated).unwrap() {}
+            assert_eq!(e.last_outcome(), Some(Outcome::Truncated), "time limit {limit}");
+        }
+        assert_eq!(e.adaptive_filter().own_counts(), (joined, 0), "time limit {limit}");
+    }
+}
+
 /// A mixed run of episodes (left crashes, right runs, idling) under every variant at once.
 fn actions(episode: usize) -> Vec<f64> {
     match episode % 3 {

@@ -141,7 +141,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
                     demos = choose_diverse(&demos, n, mode)?;
                 }
                 if episodes.len() > AUTHORS_EPISODES {
-                    eprintln!(
+                    note!(
                         "{}: scoring its first {AUTHORS_EPISODES} of {} recorded episodes, as the authors' \
                          ablation did",
                         episodes_path.display(),
@@ -163,7 +163,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
                 format!("ablation of {} against {}", episodes_path.display(), demos_path.display())
             })?;
         bar.finish_and_clear();
-        eprintln!("{task}: {} recorded episodes scored", episodes.len());
+        note!("{task}: {} recorded episodes scored", episodes.len());
         per_task.push(rows);
     }
     let rows = if per_task.len() == 1 { per_task.remove(0) } else { defender::rank_tasks(&per_task)? };
@@ -173,7 +173,7 @@ pub fn run(args: AblateArgs) -> Result<()> {
         Scoring::Spec => String::new(),
         Scoring::Authors { horizon } => format!(" by the authors' score (horizon {horizon})"),
     };
-    println!("{} strategies ranked{scored} -> {}", rows.len(), args.out.display());
+    say!("{} strategies ranked{scored} -> {}", rows.len(), args.out.display());
     Ok(())
 }
 
@@ -203,7 +203,7 @@ fn choose_diverse(demos: &EpisodeSet, n: usize, mode: Mode) -> Result<EpisodeSet
     let (safe, unsafe_) = demos.group_sizes();
     for (group, size) in [("safe", safe), ("unsafe", unsafe_)] {
         if size < n {
-            eprintln!(
+            note!(
                 "{}: the {group} group has {size} demonstrations, fewer than --num-demos {n}: all of them \
                  are used (as the authors' choice does)",
                 demos.source().display()
@@ -257,7 +257,7 @@ fn combine(args: &AblateArgs) -> Result<()> {
     )?;
     defender::write_csv_scored(&args.out, &rows, scoring)?;
     print_top(&rows, args.top);
-    println!(
+    say!(
         "{} strategies ranked over {} tasks by their mean {} score -> {}",
         rows.len(),
         per_task.len(),
@@ -273,8 +273,8 @@ fn refuse_repeats(flag: &str, paths: &[PathBuf]) -> Result<()> {
     let mut seen: Vec<(&PathBuf, PathBuf, Vec<u8>)> = Vec::new();
     for path in paths {
         let canonical = std::fs::canonicalize(path).with_context(|| format!("{flag} {}", path.display()))?;
-        let bytes =
-            std::fs::read(path).with_context(|| format!("{flag} {}: cannot read it", path.display()))?;
+        let bytes = defender_io::read_input(path)
+            .with_context(|| format!("{flag} {}: cannot read it", path.display()))?;
         if let Some((first, _, _)) = seen.iter().find(|(_, c, b)| *c == canonical || *b == bytes) {
             bail!(
                 "{flag} {} is given twice ({} holds the same {}): each task's input counts once; \
@@ -306,5 +306,5 @@ fn print_top(rows: &[AblationRow], top: usize) {
             format!("{:.4}", r.score),
         ]);
     }
-    print!("{}", table.render());
+    put!("{}", table.render());
 }

@@ -197,7 +197,7 @@ fn collect(args: &CollectArgs) -> Result<()> {
         .with_context(|| format!("{}: raise --max-steps or ask for fewer demonstrations", args.env))?;
     set.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
     let (safe, unsafe_) = set.group_sizes();
-    println!(
+    say!(
         "{}: {safe} safe and {unsafe_} unsafe demonstrations ({} transitions) from {} candidates over {steps} \
          training steps -> {}",
         args.env,

@@ -89,14 +89,14 @@ pub fn collect(args: &CollectArgs) -> Result<()> {
     set.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
     let (safe, unsafe_) = set.group_sizes();
     let r_task = set.min_reward().unwrap_or(f32::NAN);
-    println!(
+    say!(
         "{}: {safe} safe and {unsafe_} unsafe demonstrations ({} transitions, lowest reward {r_task}) over \
          {episodes} training episodes -> {}",
         args.env,
         set.transitions(),
         args.out.display()
     );
-    println!(
+    say!(
         "each group is in the authors' diversity order: num_demos = N filters with their choice of N; their \
          R_task is the lowest reward of all {} (a run with fewer takes it over those it uses: give r_task = \
          {r_task} to keep theirs)",

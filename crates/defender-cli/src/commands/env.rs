@@ -1,6 +1,5 @@
 //! `defender env ...`: the MuJoCo tasks.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
@@ -60,7 +59,7 @@ pub struct ReplayArgs {
 pub fn run(cmd: EnvCommand) -> anyhow::Result<()> {
     match cmd {
         EnvCommand::List => {
-            print!("{}", list_table());
+            put!("{}", list_table());
             Ok(())
         }
         EnvCommand::Replay(args) => run_replay(&args),
@@ -118,7 +117,7 @@ fn run_replay(args: &ReplayArgs) -> anyhow::Result<()> {
         (Some(true), false) => "terminated",
         _ => "not terminated",
     };
-    println!(
+    say!(
         "{id}: {} of {} steps, {end}, return {:.6} -> {}",
         rollout.steps(),
         actions.len() / act_dim,
@@ -134,7 +133,7 @@ fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Res
         let dims: Vec<String> = shape.iter().map(|d| d.map_or("T".into(), |n| n.to_string())).collect();
         format!("a float64 .npy of shape [{}] ({what})", dims.join(", "))
     };
-    let file = File::open(path)
+    let file = defender_io::open_input(path)
         .with_context(|| format!("{}: cannot open (expected {})", path.display(), expected()))?;
     let npy = npyz::NpyFile::new(BufReader::new(file))
         .with_context(|| format!("{}: not a readable .npy file (expected {})", path.display(), expected()))?;

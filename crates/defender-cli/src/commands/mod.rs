@@ -11,3 +11,4 @@ pub mod screen;
 pub mod select;
 pub mod sweep;
 pub mod train;
+mod train_args;

@@ -97,7 +97,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         );
     }
     for skipped in &set.skipped {
-        eprintln!("warning: skipping {}: {}", skipped.dir.display(), skipped.reason);
+        note!("warning: skipping {}: {}", skipped.dir.display(), skipped.reason);
     }
     if set.runs.is_empty() {
         return Err(ReportError::Empty.into());
@@ -107,7 +107,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
     if format == Format::Csv {
         // Markdown and LaTeX carry the notes in the output; CSV has no place for them.
         for note in &table.notes {
-            eprintln!("note: {note}");
+            note!("note: {note}");
         }
     } else if !set.skipped.is_empty() {
         // The written report says that it is short of these runs, not only this terminal.
@@ -123,7 +123,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
                     .map_err(|source| ReportError::Io { path: parent.to_path_buf(), source })?;
             }
             write_atomic(path, text.as_bytes())?;
-            eprintln!("wrote {} ({} rows from {} runs)", path.display(), table.rows.len(), set.runs.len());
+            note!("wrote {} ({} rows from {} runs)", path.display(), table.rows.len(), set.runs.len());
         }
         None => {
             let mut stdout = std::io::stdout().lock();
@@ -138,13 +138,13 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         let options = PlotOptions { crash_window: args.crash_window, ..PlotOptions::default() };
         let plots = draw_plots(&set.runs, dir, &options)?;
         for note in &plots.notes {
-            eprintln!("note: {note}");
+            note!("note: {note}");
         }
-        eprintln!("wrote {} plot files to {}", plots.files.len(), dir.display());
+        note!("wrote {} plot files to {}", plots.files.len(), dir.display());
     }
     if let Some(dir) = &args.tensorboard {
         let n = crate::tensorboard::convert::write_runs(&set.runs, &args.runs, dir)?;
-        eprintln!("wrote the TensorBoard event files of {n} runs to {}", dir.display());
+        note!("wrote the TensorBoard event files of {n} runs to {}", dir.display());
     }
     Ok(())
 }

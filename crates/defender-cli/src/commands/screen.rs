@@ -147,7 +147,7 @@ pub fn run(args: ScreenArgs) -> Result<()> {
         }
     }
     let n = episodes.len().min(args.first.unwrap_or(usize::MAX));
-    eprintln!("screening {} variants over {n} recorded episodes ...", jobs.len());
+    note!("screening {} variants over {n} recorded episodes ...", jobs.len());
     let lines = jobs
         .into_par_iter()
         .map(|(strategy, scaling, demos, variant)| {
@@ -157,7 +157,7 @@ pub fn run(args: ScreenArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     write(&args.out, &lines)?;
     print(&lines);
-    println!("{} lines -> {}", lines.len(), args.out.display());
+    say!("{} lines -> {}", lines.len(), args.out.display());
     Ok(())
 }
 
@@ -227,5 +227,5 @@ fn print(lines: &[Line]) {
             format!("{:.3}", t.final_margin),
         ]);
     }
-    print!("{}", table.render());
+    put!("{}", table.render());
 }

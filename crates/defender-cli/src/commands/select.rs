@@ -123,7 +123,7 @@ pub fn run(args: SelectArgs) -> Result<()> {
     selection.write_csv(&args.out)?;
     print_top(&selection.rows, args.top);
     let (safe, unsafe_) = selection.demos;
-    println!(
+    say!(
         "{} strategies ranked from {safe} + {unsafe_} demonstrations{} in {:.1}s -> {}",
         selection.rows.len(),
         if selection.episodes > 0 {
@@ -135,8 +135,8 @@ pub fn run(args: SelectArgs) -> Result<()> {
         args.out.display()
     );
     match selection.best() {
-        Some(best) => println!("chosen: {} ({mode}, scaling {})", best.strategy, best.scaling),
-        None => println!(
+        Some(best) => say!("chosen: {} ({mode}, scaling {})", best.strategy, best.scaling),
+        None => say!(
             "no strategy chosen: each one raises false alarms on more than {}% of the held-out safe \
              demonstrations (--max-false-alarm)",
             100.0 * config.max_false_alarm
@@ -190,7 +190,7 @@ fn print_top(rows: &[StrategyScore], top: usize) {
             format!("{:.4}", r.score),
         ]);
     }
-    print!("{}", table.render());
+    put!("{}", table.render());
 }
 
 /// `strategy = "auto"` in a run: chooses the strategy on the run's demonstrations (its
@@ -242,19 +242,19 @@ pub fn choose_for_run(
     if scalings.len() > 1 {
         for &scaling in &scalings {
             match selection.best_under(scaling) {
-                Some(r) => eprintln!(
+                Some(r) => note!(
                     "strategy auto: best under scaling {scaling}: {} (false alarms {:.1}%, crashes prevented {:.1}%)",
                     r.strategy,
                     100.0 * r.false_alarm_rate,
                     100.0 * r.crash_prevention_rate
                 ),
-                None => eprintln!(
-                    "strategy auto: no strategy within the false-alarm budget under scaling {scaling}"
-                ),
+                None => {
+                    note!("strategy auto: no strategy within the false-alarm budget under scaling {scaling}")
+                }
             }
         }
     }
-    eprintln!(
+    note!(
         "strategy auto: chose {} ({mode}, scaling {}) of {} strategies in {:.1}s: false alarms {:.1}%, crashes prevented {:.1}%",
         best.strategy,
         best.scaling,
@@ -264,7 +264,7 @@ pub fn choose_for_run(
         100.0 * record.crash_prevention_rate
     );
     if record.crash_prevention_rate < 0.5 {
-        eprintln!(
+        note!(
             "warning: {} catches only {:.0}% of the held-out crashes within the false-alarm budget: \
              the demonstrations hardly tell safe from unsafe; recorded episodes of an agent \
              (`defender select --episodes`) may choose better",

@@ -54,7 +54,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     if args.list {
         for run in &experiment.runs {
             for warning in defender_config::inert::warnings(&run.config) {
-                eprintln!("warning: {}: {warning}", run.name);
+                note!("warning: {}: {warning}", run.name);
             }
             let dir = args.out.join(&run.name);
             let state = match state_of(&dir) {
@@ -75,9 +75,9 @@ pub fn run(args: SweepArgs) -> Result<()> {
                     "state": state,
                     "config": toml::to_string(&run.config_in(&args.out))?,
                 });
-                println!("{line}");
+                say!("{line}");
             } else {
-                println!("{state:8} {}", run.name);
+                say!("{state:8} {}", run.name);
             }
         }
         return Ok(());
@@ -91,7 +91,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
     let _lock = defender_io::DirLock::try_acquire(&args.out)?;
     crate::sweep::complete::check(&args.out, &experiment.runs)?;
     if !experiment.description.is_empty() {
-        eprintln!("{}", experiment.description);
+        note!("{}", experiment.description);
     }
     if let Some(paper) = &experiment.paper {
         let per_run = match (paper.episodes, paper.steps) {
@@ -99,13 +99,13 @@ pub fn run(args: SweepArgs) -> Result<()> {
             (None, Some(s)) => format!("{s} steps"),
             (None, None) => "unstated".to_string(),
         };
-        eprintln!(
+        note!(
             "the paper's budget: {per_run} per run, {} seeds; this file's budget is in config.toml of each run",
             paper.seeds.map_or("?".to_string(), |s| s.to_string())
         );
     }
     let end = runner::run_all(&args.out, &experiment.runs, jobs, &stop)?;
-    eprintln!(
+    note!(
         "sweep: {} completed now, {} were complete, {} failed{}; tables: defender report {}",
         end.completed,
         end.skipped,

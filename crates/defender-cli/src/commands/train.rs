@@ -1,11 +1,8 @@
 //! `defender train`: SAC or TD3 on a MuJoCo task, bare or with DEFENDER, into a run directory.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
-use defender::Mode;
-use defender::selection::StrategyChoice;
 use defender_report::{OutcomeCounts, Summary};
 use defender_rl::{
     Agent, Algo, Budget, Env, EpisodeRecord, EvalRecord, HookError, Hooks, RunEnd, Trainer, TrainerConfig,
@@ -23,125 +20,7 @@ use defender_config::run_config::{
     DefenderSection, RunConfig, default_checkpoint_seconds, five, read_config, with_profile,
 };
 
-/// Arguments of `defender train`.
-#[derive(Debug, Args)]
-#[command(after_help = "Examples:
-  defender train --env Hopper-v5 --algo sac --steps 300000 --out runs/hopper-sac-bare
-  defender train --env Hopper-v5 --algo sac --strategy MeanDemoW5/MeanDemoW10 --steps 300000 --out runs/hopper-sac-def
-  defender train --config my.toml --out runs/x          (flags override the file and fill what it leaves out)
-  defender train --out runs/x --resume                  (continue a stopped run)
-
-Without --demos, DEFENDER uses the demonstrations shipped for the task (data/demos/<ENV>.npz).
-The run directory gets config.toml, metrics.csv, eval.csv, summary.json, checkpoint/ and a
-TensorBoard event file (`tensorboard --logdir`; [log] tensorboard = false: none) (docs/run-directory.md). Ctrl-C, SIGTERM and SIGHUP stop at the end of the current episode with
-a checkpoint (exit code 130/143/129); a checkpoint is also written every 2 minutes, so --resume
-continues even after a kill -9. A resumed run keeps its configuration: only --steps/--episodes
-may extend its budget. Progress: a bar on a terminal, else a `progress:` line a minute
-(DEFENDER_PROGRESS_INTERVAL=SECONDS or off).")]
-pub struct TrainArgs {
-    /// Gymnasium id of the task (see `defender env list`).
-    #[arg(long)]
-    pub env: Option<String>,
-    /// The RL algorithm: sac or td3 [default: sac].
-    #[arg(long, value_parser = parse_algo)]
-    pub algo: Option<Algo>,
-    /// A DEFENDER strategy SAFE/UNSAFE (e.g. MeanDemoW5/MeanDemoW10), or `auto` to choose one from
-    /// the demonstrations first (`defender select`); none trains the bare algorithm.
-    #[arg(long, value_parser = parse_strategy)]
-    pub strategy: Option<StrategyChoice>,
-    /// Demonstration set (.npz, SPEC section 8); default: the one shipped for the task.
-    #[arg(long)]
-    pub demos: Option<PathBuf>,
-    /// Demonstrations used per group (the first N safe and the first N unsafe of the file).
-    #[arg(long)]
-    pub num_demos: Option<usize>,
-    /// Trajectory elements: states, or state-action pairs.
-    #[arg(long, value_parser = parse_mode)]
-    pub mode: Option<Mode>,
-    /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
-    #[arg(long, allow_negative_numbers = true)]
-    pub r_task: Option<f64>,
-    /// Filter only when the trajectory is clearly closer to the unsafe group: `Unsafe <= (1 - M) *
-    /// Safe`, M in [0, 1) ([defender.filter] margin; 0 is SPEC's rule).
-    #[arg(long, value_name = "M")]
-    pub margin: Option<f64>,
-    /// Adapt the margin after every episode so that this share of episodes is filtered
-    /// ([defender.filter.budget] share, time constant 100 episodes).
-    #[arg(long, value_name = "SHARE")]
-    pub filter_budget: Option<f64>,
-    /// The agent's own episodes join the demonstrations (its crashes the unsafe group, episodes
-    /// that reach the horizon the safe one), at most K per group, the oldest replaced
-    /// ([defender.filter.own_episodes] keep).
-    #[arg(long, value_name = "K")]
-    pub own_episodes: Option<usize>,
-    /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
-    /// updates: same results bit for bit, less wall time when a core is free
-    /// ([defender.dynamics] background = true). The default already when the networks use two
-    /// or more threads (DEFENDER_NN_THREADS, else min(2, cores)).
-    #[arg(long)]
-    pub dynamics_thread: bool,
-    /// Train DEFENDER's dynamics model on SPEC section 5's schedule, one gradient step of batch
-    /// 256 per real step at lr 3e-4, instead of the default, batch 64 every 2 real steps at lr
-    /// 1e-3, 8x cheaper ([defender.dynamics] train_freq = 1, batch_size = 256, learning_rate =
-    /// 0.0003; docs/decisions.md).
-    #[arg(long)]
-    pub dynamics_spec_schedule: bool,
-    /// Budget in training episodes.
-    #[arg(long, conflicts_with = "steps")]
-    pub episodes: Option<u64>,
-    /// Budget in environment steps.
-    #[arg(long)]
-    pub steps: Option<u64>,
-    /// Seed of every random stream of the run.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Evaluate the deterministic policy every N steps (0: only at the end).
-    #[arg(long)]
-    pub eval_freq: Option<u64>,
-    /// Checkpoint every N training episodes (0: only by time, at the end and on a stop signal).
-    #[arg(long)]
-    pub checkpoint_every: Option<u64>,
-    /// Checkpoint at the first episode end N wall-clock seconds after the last one [default: 120;
-    /// 0: never by time].
-    #[arg(long)]
-    pub checkpoint_seconds: Option<u64>,
-    /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// keeps-learning [the default]: a DEFENDER run filters with a margin of 0.02 and its own
-    /// episodes joining the demonstrations (50 per group), and its agent also learns from the
-    /// demonstrations (replay buffer, SAC with per-row cloning; docs/results-keeps-learning.md);
-    /// a bare run is plain SAC/TD3. spec: SPEC.md, the paper's text as written. authors: every
-    /// setting in which the authors' code differs (FastDTW L1 over the last 20 steps, ties
-    /// executed, demonstrations in the replay buffer with a behaviour-cloning term, SAC without
-    /// warm-up at alpha 0.5, episode ends terminal; docs/SPEC.md). Keys the configuration and
-    /// flags give win; config.toml lists every setting.
-    #[arg(long, value_enum)]
-    pub profile: Option<defender_config::profile::Profile>,
-    /// Save the training episodes as an episode set (.npz) for `defender ablate`.
-    #[arg(long)]
-    pub record_episodes: Option<PathBuf>,
-    /// Continue the stopped run in --out from its checkpoint (its config.toml is used).
-    #[arg(long)]
-    pub resume: bool,
-    /// The run directory to write.
-    #[arg(long)]
-    pub out: PathBuf,
-    #[command(flatten)]
-    pub safety: super::safety_flags::SafetyFlags,
-}
-
-fn parse_algo(s: &str) -> Result<Algo, String> {
-    s.parse().map_err(|_| format!("unknown algorithm '{s}'; expected sac or td3"))
-}
-
-fn parse_strategy(s: &str) -> Result<StrategyChoice, String> {
-    s.parse().map_err(|e: defender::DefenderError| e.to_string())
-}
-
-fn parse_mode(s: &str) -> Result<Mode, String> {
-    s.parse().map_err(|e: defender::DefenderError| e.to_string())
-}
+pub use super::train_args::TrainArgs;
 
 /// Resolves flags over an optional configuration file: a flag wins over the file, and fills
 /// what a partial file leaves out (`env`, `algo`).
@@ -176,7 +55,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     // The profile again, now that the flags may have set the algorithm or a strategy: it fills
     // what the file (or nothing) gave, never a key the file set.
     let mut given = match &args.config {
-        Some(path) => toml::from_str(&std::fs::read_to_string(path)?)?,
+        Some(path) => toml::from_str(&defender_io::read_input_to_string(path)?)?,
         None => toml::Table::new(),
     };
     if let Some(profile) = args.profile {
@@ -221,7 +100,8 @@ fn given_by_flags(given: &mut toml::Table, args: &TrainArgs) {
 /// from `--algo`, else `sac`) filled in before it is read, so that `--config base.toml --env
 /// Hopper-v5` works; flags then override the rest ([`apply_flags`]).
 fn read_partial_config(path: &Path, args: &TrainArgs) -> Result<RunConfig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        defender_io::read_input_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut table: toml::Table = toml::from_str(&text)
         .with_context(|| format!("{}: not a valid run configuration", path.display()))?;
     if !table.contains_key("env") {
@@ -343,11 +223,13 @@ fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
 /// Runs `defender train`.
 pub fn run(args: TrainArgs) -> Result<()> {
     let stop = StopRequest::install()?;
+    // A new run is resolved, and what it reads and writes checked, before its directory exists.
+    let requested = if args.resume { None } else { Some(crate::run_inputs::check(resolve(&args)?, &args)?) };
     let _lock = run_dir::claim(&args.out)?;
     let checkpoint_dir = args.out.join("checkpoint");
     let has_checkpoint = defender_io::resolve_dir(&checkpoint_dir).is_some();
     let mut config = if args.resume {
-        resumed_config(&args)?
+        crate::run_inputs::check(resumed_config(&args)?, &args)?
     } else {
         if has_checkpoint || args.out.join("summary.json").exists() {
             bail!(
@@ -355,17 +237,14 @@ pub fn run(args: TrainArgs) -> Result<()> {
                 args.out.display()
             );
         }
-        resolve(&args)?
+        requested.map_or_else(|| resolve(&args), Ok)?
     };
     let resuming = args.resume && has_checkpoint;
     if args.resume && !has_checkpoint {
-        eprintln!(
-            "{}: no checkpoint yet (stopped before its first one); starting the run again from its config.toml",
-            args.out.display()
-        );
+        crate::resumable::restart_or_refuse(&args.out, &config)?;
     }
     for warning in defender_config::inert::warnings(&config) {
-        eprintln!("warning: {warning}");
+        note!("warning: {warning}");
     }
     let built = setup::build(&config)?;
     // What was resolved (R_task, the demonstrations, an automatic strategy) is what config.toml
@@ -430,7 +309,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         trainer.agent().save_actor(&actor).with_context(|| format!("cannot save {}", actor.display()))?;
         if let (Some(path), Some(recorder)) = (&config.record_episodes, hooks.recorder.take()) {
             recorder.save(path)?;
-            eprintln!("recorded {} training episodes into {}", recorder.len(), path.display());
+            note!("recorded {} training episodes into {}", recorder.len(), path.display());
         }
     }
     print_summary(&args.out, &summary, matches!(end, RunEnd::Stopped));
@@ -462,7 +341,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 fn print_summary(out: &Path, s: &Summary, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
     let what = s.strategy.map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
-    println!(
+    say!(
         "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
         s.algo,
@@ -475,9 +354,9 @@ fn print_summary(out: &Path, s: &Summary, stopped: bool) {
         s.wall_seconds
     );
     if stopped {
-        println!("stopped; continue with: defender train --out {} --resume", out.display());
+        say!("stopped; continue with: defender train --out {} --resume", out.display());
     } else {
-        println!("run directory: {}", out.display());
+        say!("run directory: {}", out.display());
     }
 }
 

@@ -166,7 +166,7 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
     let total = runs.len();
     let budget_of = |r: &PlannedRun| r.config.total_steps.max(1);
     let steps_total: u64 = queue.iter().map(|(r, _)| budget_of(r)).sum();
-    eprintln!(
+    note!(
         "sweep: {total} runs, {} complete, {} to run ({} resumed), {jobs} at a time",
         end.skipped,
         queue.len(),
@@ -208,7 +208,7 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
                             end.completed += 1;
                             finished_steps += done;
                             bar.suspend(|| {
-                                eprintln!(
+                                note!(
                                     "[{}/{total}] complete {}: {}",
                                     end.completed + end.skipped,
                                     r.name,
@@ -218,12 +218,12 @@ pub fn run_all(root: &Path, runs: &[PlannedRun], jobs: usize, stop: &StopRequest
                         }
                         _ if r.signalled => {
                             bar.suspend(|| {
-                                eprintln!("stopped {} (resumes when the sweep is started again)", r.name)
+                                note!("stopped {} (resumes when the sweep is started again)", r.name)
                             });
                         }
                         _ => {
                             let tail = log_tail(&log);
-                            bar.suspend(|| eprintln!("FAILED {} ({status}):\n{tail}", r.name));
+                            bar.suspend(|| note!("FAILED {} ({status}):\n{tail}", r.name));
                             end.failed.push((r.name.clone(), tail));
                         }
                     }

@@ -178,7 +178,7 @@ impl TrainingBoard {
         let continued = saved.and_then(|s| match EventFile::truncate_to(&dir.join(&s.file), s.offset) {
             Ok(file) => Some((file, s)),
             Err(e) => {
-                eprintln!(
+                note!(
                     "warning: TensorBoard: {e:#}; starting a new event file from the checkpoint's episodes"
                 );
                 None

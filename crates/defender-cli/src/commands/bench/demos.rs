@@ -72,7 +72,7 @@ pub(super) fn load_demos(path: Option<&Path>, synthetic: bool) -> anyhow::Result
     if default.exists() {
         match file_demos(default) {
             Ok(d) => return Ok(d),
-            Err(err) => eprintln!("warning: {err:#}; using synthetic demonstrations"),
+            Err(err) => note!("warning: {err:#}; using synthetic demonstrations"),
         }
     }
     synthetic_demos()

@@ -37,7 +37,7 @@ pub(super) struct Bench {
 impl Bench {
     pub(super) fn note(&self, text: &str) {
         if self.progress {
-            eprintln!("bench: {text}");
+            note!("bench: {text}");
         }
     }
 

@@ -161,19 +161,19 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let load_before = load_average();
     let names: Vec<&str> = selected.iter().map(|f| f.name()).collect();
-    println!("defender bench ({}): {}", if args.quick { "quick" } else { "full" }, names.join(", "));
-    println!("machine:  {}; load average {} (1/5/15 min) at start", machine(), load_before);
-    println!("threads:  networks {} ({threads_from}); MuJoCo on one thread", par.num_threads());
+    say!("defender bench ({}): {}", if args.quick { "quick" } else { "full" }, names.join(", "));
+    say!("machine:  {}; load average {} (1/5/15 min) at start", machine(), load_before);
+    say!("threads:  networks {} ({threads_from}); MuJoCo on one thread", par.num_threads());
     if selected.iter().any(|f| f.trains()) {
-        println!(
+        say!(
             "training: {TASK}, seed {SEED}, {LEARNING_STARTS} warm-up steps then {} timed steps per run",
             bench.steps
         );
     }
     if let Some(d) = &bench.demos {
-        println!("demos:    {}", d.label);
+        say!("demos:    {}", d.label);
     }
-    println!();
+    say!();
 
     let mut rows = Vec::new();
     for &figure in &selected {
@@ -190,16 +190,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         rows.extend(new);
     }
 
-    print!("{}", row::table(&rows));
+    put!("{}", row::table(&rows));
     let with_target: Vec<&Row> = rows.iter().filter(|r| r.target.is_some()).collect();
     let missed: Vec<String> =
         with_target.iter().filter(|r| !r.met().unwrap_or(true)).map(|r| r.short()).collect();
-    println!();
-    println!("targets met: {} of {}", with_target.len() - missed.len(), with_target.len());
+    say!();
+    say!("targets met: {} of {}", with_target.len() - missed.len(), with_target.len());
     for m in &missed {
-        println!("  not met: {m}");
+        say!("  not met: {m}");
     }
-    println!("load average {} at end; {:.0} s in total", load_average(), started.elapsed().as_secs_f64());
+    say!("load average {} at end; {:.0} s in total", load_average(), started.elapsed().as_secs_f64());
     Ok(())
 }
 
