@@ -5,6 +5,7 @@ mod commands;
 mod cost_meter;
 mod demo_horizon;
 mod progress;
+mod recovery_agent;
 mod run_dir;
 mod safety_agent;
 mod setup;
