@@ -26,7 +26,7 @@ const MIN_STD: f32 = 1e-6;
 /// The policy's scalar state, kept in the agent's `state.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(crate) struct StdState {
-    log_std: Vec<f32>,
+    pub(crate) log_std: Vec<f32>,
     opt: Vec<ScalarAdam>,
 }
 
@@ -34,16 +34,18 @@ pub(crate) struct StdState {
 #[derive(Debug, Clone)]
 pub(crate) struct RecoveryPolicy {
     /// `obs -> net_arch -> act` with a tanh output: the mean.
-    net: Mlp,
+    pub(crate) net: Mlp,
     opt: Adam,
     /// The state-independent log standard deviation, one per action dimension, each with its
     /// Adam (element-wise, the arithmetic of one Adam over the authors' parameter vector).
-    std: StdState,
+    pub(crate) std: StdState,
     act_dim: usize,
     /// Noise of the last batch sample, `b x a`.
     eps: Vec<f32>,
     /// The last batch sample `mean + std eps` (unclipped), `b x a`.
     pub(crate) act: Vec<f32>,
+    /// `dL/dlog_std` of the last [`RecoveryPolicy::backward`].
+    pub(crate) log_std_grad: Vec<f32>,
 }
 
 impl RecoveryPolicy {
@@ -65,6 +67,7 @@ impl RecoveryPolicy {
             act_dim,
             eps: vec![0.0; b * act_dim],
             act: vec![0.0; b * act_dim],
+            log_std_grad: vec![0.0; act_dim],
         })
     }
 
@@ -99,23 +102,31 @@ impl RecoveryPolicy {
         }
     }
 
-    /// One Adam step given `dL/da` for the last [`RecoveryPolicy::sample_batch`] (`b x a`):
-    /// `dL/dmean = dL/da` (the tanh is inside the network), `dL/dlog_std_j = sum_i dL/da_ij
-    /// std_j eps_ij`, zero where the floor cut the log (as `torch.clamp`).
-    pub(crate) fn step(&mut self, dact: &[f32], b: usize) {
+    /// Leaves the gradient of a loss `L` in the network and in `log_std_grad`, given `dL/da` for
+    /// the last [`RecoveryPolicy::sample_batch`] (`b x a`): `dL/dmean = dL/da` (the tanh is
+    /// inside the network), `dL/dlog_std_j = sum_i dL/da_ij std_j eps_ij`, zero where the floor
+    /// cut the log (as `torch.clamp`).
+    pub(crate) fn backward(&mut self, dact: &[f32], b: usize) {
         let a = self.act_dim;
         self.net.zero_grad();
         self.net.backward_params(rows(dact, b, a));
-        self.opt.step(&mut self.net);
         for j in 0..a {
             let log_std = self.std.log_std[j];
-            let g = if log_std >= MIN_STD.ln() {
+            self.log_std_grad[j] = if log_std >= MIN_STD.ln() {
                 let std = log_std.exp();
                 (0..b).map(|i| dact[i * a + j] * std * self.eps[i * a + j]).sum()
             } else {
                 0.0
             };
-            self.std.opt[j].step(&mut self.std.log_std[j], g);
+        }
+    }
+
+    /// One Adam step on the gradient [`RecoveryPolicy::backward`] left.
+    pub(crate) fn apply(&mut self) {
+        self.opt.step(&mut self.net);
+        for ((log_std, opt), &g) in self.std.log_std.iter_mut().zip(&mut self.std.opt).zip(&self.log_std_grad)
+        {
+            opt.step(log_std, g);
         }
     }
 

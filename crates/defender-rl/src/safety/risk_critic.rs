@@ -175,17 +175,32 @@ impl RiskCritic {
             critic_loss += values.iter().zip(target).map(|(q, y)| (q - y) * (q - y)).sum::<f32>() / b as f32;
         }
 
-        // Recovery policy: minimise mean max_i Q_i(s, a~) through the updated critics. The
-        // max's gradient goes to the larger critic, half to each on a tie (torch.max).
+        let policy_loss = self.policy_backward();
+        self.policy.apply();
+
+        self.critics.polyak(TAU_RISK);
+        self.n_updates += 1;
+        if !(critic_loss.is_finite() && policy_loss.is_finite()) {
+            return Err(RlError::Diverged { what: "Recovery RL safety critic loss", update: self.n_updates });
+        }
+        Ok(RiskStats { critic_loss, policy_loss })
+    }
+
+    /// The recovery policy's loss `mean max_i Q_i(s, a~)` on the batch's states through the
+    /// critics as they are, its gradient left in the policy. The max's gradient goes to the
+    /// larger critic, half to each on a tie (torch.max).
+    pub(crate) fn policy_backward(&mut self) -> f32 {
+        let (b, o, a) = (self.shape.batch_size, self.shape.obs_dim, self.shape.act_dim);
+        let ws = &mut self.ws;
         self.policy.sample_batch(&ws.batch.obs, b, o, &mut self.rng);
         concat_rows(&mut ws.pi_in, &ws.batch.obs, &self.policy.act, b, o, a);
         let pi_in = &ws.pi_in;
         self.critics.each(|_, c| c.forward(pi_in, b));
         let (q1, q2) = (&self.critics[0].q, &self.critics[1].q);
-        let mut policy_loss = 0.0f32;
+        let mut loss = 0.0f32;
         let g = 1.0 / b as f32;
         for i in 0..b {
-            policy_loss += q1[i].max(q2[i]) / b as f32;
+            loss += q1[i].max(q2[i]) / b as f32;
             (ws.grad1[i], ws.grad2[i]) = match q1[i].partial_cmp(&q2[i]) {
                 Some(std::cmp::Ordering::Greater) => (g, 0.0),
                 Some(std::cmp::Ordering::Less) => (0.0, g),
@@ -201,14 +216,8 @@ impl RiskCritic {
                 ws.dact[i * a + j] = d1[k] + d2[k];
             }
         }
-        self.policy.step(&ws.dact, b);
-
-        self.critics.polyak(TAU_RISK);
-        self.n_updates += 1;
-        if !(critic_loss.is_finite() && policy_loss.is_finite()) {
-            return Err(RlError::Diverged { what: "Recovery RL safety critic loss", update: self.n_updates });
-        }
-        Ok(RiskStats { critic_loss, policy_loss })
+        self.policy.backward(&ws.dact, b);
+        loss
     }
 
     /// The scalar state, for `state.json`.
@@ -238,3 +247,7 @@ impl RiskCritic {
         Ok(())
     }
 }
+
+#[cfg(test)]
+#[path = "risk_critic_tests.rs"]
+mod tests;
