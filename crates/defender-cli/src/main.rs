@@ -10,6 +10,7 @@ mod commands;
 mod cost_meter;
 mod demo_horizon;
 mod progress;
+mod recovery_agent;
 mod resumable;
 mod run_dir;
 mod run_inputs;

@@ -13,6 +13,9 @@ pub fn build_agent(
     act_dim: usize,
     seed: u64,
 ) -> Result<Box<dyn Agent>> {
+    if let Some(SafetyConfig::Recovery(recovery)) = &config.safety {
+        return crate::recovery_agent::build(recovery, algo, obs_dim, act_dim, seed);
+    }
     let agent = algo.build(obs_dim, act_dim, seed)?;
     Ok(match &config.safety {
         None => agent,

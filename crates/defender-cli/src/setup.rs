@@ -32,7 +32,8 @@ pub struct Built {
     pub defender: Option<DefenderSection>,
     /// DEFENDER's dynamics model, read apart from the training environment (for `dynamics.csv`).
     pub dynamics: Option<defender::DynamicsHandle>,
-    /// A bare run's demonstration file stored in the agent's buffer, and its SHA-256.
+    /// A bare run's demonstration file stored in the agent's buffer (or Recovery RL's), and its
+    /// SHA-256.
     pub replay_demos: Option<(PathBuf, String)>,
     /// DEFENDER's alignment costs as the run goes (for its TensorBoard scalars).
     pub costs: Option<crate::cost_meter::SharedCosts>,
@@ -55,6 +56,8 @@ pub fn model_on_own_thread(requested: bool, networks: Parallelism) -> bool {
 pub fn build(config: &RunConfig) -> Result<Built> {
     let (env_id, seed) = (config.env.as_str(), config.seed);
     let algo = config.algo_config();
+    // Recovery RL pretrains on the demonstrations whatever `demos_in_replay` says.
+    let recovery = crate::recovery_agent::needs_demos(config);
     let task = defender_mujoco::make(env_id)?;
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
     let action_space = task.action_space().clone();
@@ -62,12 +65,7 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     let mut agent = crate::safety_agent::build_agent(config, &algo, obs_dim, act_dim, seed)?;
     let Some(section) = config.defender.as_ref() else {
         let mut replay_demos = None;
-        if algo.demos_in_replay() {
-            let path = config.demos.clone().or_else(|| shipped_demos(env_id)).with_context(|| {
-                format!(
-                    "demos_in_replay: no demonstrations shipped for {env_id}; give the top-level `demos` key"
-                )
-            })?;
+        if let Some(path) = crate::recovery_agent::bare_demos(config, algo.demos_in_replay())? {
             let (demos, sha256) = load_pinned(&path, config.demos_sha256.as_deref())?;
             demos.check_env(env_id, obs_dim, act_dim)?;
             preload(&mut *agent, &demos, &action_space)?;
@@ -128,7 +126,7 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         section.num_demos = Some(demos.group_sizes().0.min(demos.group_sizes().1));
     }
     let dynamics = Some(wrapped.dynamics_handle());
-    if algo.demos_in_replay() {
+    if algo.demos_in_replay() || recovery {
         preload(&mut *agent, &demos, &action_space)?;
     }
     let (metered, costs) = crate::cost_meter::CostMeter::new(wrapped);

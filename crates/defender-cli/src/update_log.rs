@@ -1,7 +1,7 @@
 //! `updates.csv`: the learner's own numbers as training goes (SB3's logger, CleanRL's
 //! TensorBoard scalars), so a user can see why a run diverged: the critics' loss and mean Q, the
 //! actor's loss, SAC's entropy coefficient and its loss, averaged over every `EVERY` environment
-//! steps; and `dynamics.csv`: DEFENDER's dynamics model, its prediction error on fresh
+//! steps, and for Recovery RL how many steps its recovery policy has acted so far; and `dynamics.csv`: DEFENDER's dynamics model, its prediction error on fresh
 //! transitions and its training loss, every `EVERY` environment steps.
 //!
 //! The files' names and headers are the run directory's (`defender_report::UPDATES_FILE`,
@@ -23,6 +23,9 @@ pub struct UpdateLog {
     alpha: Option<f32>,
     alpha_loss: (f64, u32),
     n_updates: u64,
+    /// Recovery RL's count, the last one reported (absent from checkpoints of older runs).
+    #[serde(default)]
+    recovery_steps: Option<u64>,
 }
 
 fn mean((sum, n): (f64, u32)) -> Option<f64> {
@@ -65,29 +68,33 @@ pub struct UpdateRow {
     pub ent_coef: Option<f32>,
     /// Its loss (none unless it is learned).
     pub ent_coef_loss: Option<f64>,
+    /// Recovery RL: environment steps so far in which the recovery policy acted (none for other
+    /// runs, and in rows written before the column existed).
+    pub recovery_steps: Option<u64>,
 }
 
 impl UpdateRow {
     /// The CSV row (`defender_report::UPDATES_HEADER`).
     pub fn to_csv(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{}",
             self.total_steps,
             self.n_updates,
             self.qf_loss,
             self.qf1_mean,
             field(self.actor_loss),
             field(self.ent_coef),
-            field(self.ent_coef_loss)
+            field(self.ent_coef_loss),
+            field(self.recovery_steps)
         )
     }
 
-    /// Parses a CSV row.
+    /// Parses a CSV row, of this version or of one before `recovery_steps` (7 fields).
     ///
     /// # Errors
     /// A row that is not one of `updates.csv`, with what is wrong.
     pub fn parse(line: &str) -> Result<Self, String> {
-        let f = parse_fields(line, 7)?;
+        let f = parse_fields(line, 8).or_else(|_| parse_fields(line, 7))?;
         Ok(Self {
             total_steps: required(f[0])?,
             n_updates: required(f[1])?,
@@ -96,6 +103,7 @@ impl UpdateRow {
             actor_loss: parse_field(f[4])?,
             ent_coef: parse_field(f[5])?,
             ent_coef_loss: parse_field(f[6])?,
+            recovery_steps: f.get(7).map_or(Ok(None), |s| parse_field(s))?,
         })
     }
 }
@@ -168,6 +176,7 @@ impl UpdateLog {
             self.alpha_loss = (self.alpha_loss.0 + f64::from(l), self.alpha_loss.1 + 1);
         }
         self.n_updates = stats.n_updates;
+        self.recovery_steps = stats.recovery_steps.or(self.recovery_steps);
         if !total_steps.is_multiple_of(EVERY) {
             return None;
         }
@@ -180,6 +189,7 @@ impl UpdateLog {
             actor_loss: mean(self.actor),
             ent_coef: self.alpha,
             ent_coef_loss: mean(self.alpha_loss),
+            recovery_steps: self.recovery_steps,
         };
         *self = Self::default();
         Some(row)
@@ -209,6 +219,22 @@ pub fn dynamics_row(total_steps: u64, model: &defender::DynamicsModel) -> Option
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    #[test]
+    fn update_rows_carry_recovery_rls_count_and_older_rows_still_read() {
+        let mut log = UpdateLog::default();
+        let stats = defender_rl::UpdateStats { n_updates: 3, recovery_steps: Some(42), ..Default::default() };
+        assert_eq!(log.add(999, &stats), None);
+        let row = log.add(1000, &defender_rl::UpdateStats { n_updates: 4, ..stats }).unwrap();
+        assert_eq!(row.recovery_steps, Some(42));
+        let csv = row.to_csv();
+        assert_eq!(csv.split(',').count(), defender_report::UPDATES_HEADER.split(',').count());
+        assert_eq!(UpdateRow::parse(&csv), Ok(row));
+        let old = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01").unwrap();
+        assert_eq!((old.recovery_steps, old.ent_coef_loss), (None, Some(0.01)));
+        let plain = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01,").unwrap();
+        assert_eq!(plain, old, "a run without Recovery RL leaves the column empty");
+    }
 
     #[test]
     fn dynamics_rows_come_every_1000_steps_with_the_models_numbers() {

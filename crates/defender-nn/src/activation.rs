@@ -12,15 +12,18 @@ pub enum Activation {
     Relu,
     /// `y = tanh(x)`.
     Tanh,
+    /// `y = 1 / (1 + exp(-x))` (a probability: Recovery RL's safety critic).
+    Sigmoid,
 }
 
 impl Activation {
-    /// The lower-case name used in files (`identity`, `relu`, `tanh`).
+    /// The lower-case name used in files (`identity`, `relu`, `tanh`, `sigmoid`).
     pub fn name(self) -> &'static str {
         match self {
             Activation::Identity => "identity",
             Activation::Relu => "relu",
             Activation::Tanh => "tanh",
+            Activation::Sigmoid => "sigmoid",
         }
     }
 
@@ -30,6 +33,7 @@ impl Activation {
             "identity" => Some(Activation::Identity),
             "relu" => Some(Activation::Relu),
             "tanh" => Some(Activation::Tanh),
+            "sigmoid" => Some(Activation::Sigmoid),
             _ => None,
         }
     }
@@ -48,6 +52,7 @@ impl Activation {
                 }
             }
             Activation::Tanh => x.tanh(),
+            Activation::Sigmoid => sigmoid(x),
         }
     }
 
@@ -64,6 +69,7 @@ impl Activation {
                 }
             }
             Activation::Tanh => 1.0 - y * y,
+            Activation::Sigmoid => y * (1.0 - y),
         }
     }
 
@@ -75,6 +81,7 @@ impl Activation {
             Activation::Identity => z.iter_mut().zip(bias).for_each(|(z, b)| *z += b),
             Activation::Relu => z.iter_mut().zip(bias).for_each(|(z, b)| *z = Activation::Relu.apply(*z + b)),
             Activation::Tanh => z.iter_mut().zip(bias).for_each(|(z, b)| *z = (*z + b).tanh()),
+            Activation::Sigmoid => z.iter_mut().zip(bias).for_each(|(z, b)| *z = sigmoid(*z + b)),
         }
     }
 
@@ -89,6 +96,19 @@ impl Activation {
                 }
             }),
             Activation::Tanh => g.iter_mut().zip(y).for_each(|(g, y)| *g *= 1.0 - y * y),
+            Activation::Sigmoid => g.iter_mut().zip(y).for_each(|(g, y)| *g *= y * (1.0 - y)),
         }
+    }
+}
+
+/// `1 / (1 + exp(-x))`, written so that neither branch overflows (`exp` of a large positive
+/// argument is never taken), as PyTorch's kernel does.
+#[inline(always)]
+fn sigmoid(x: f32) -> f32 {
+    if x >= 0.0 {
+        1.0 / (1.0 + (-x).exp())
+    } else {
+        let e = x.exp();
+        e / (1.0 + e)
     }
 }

@@ -9,13 +9,14 @@ use defender_nn::{Activation, Mlp, Parallelism, mse_loss, mse_loss_grad};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const ACTS: [Activation; 3] = [Activation::Identity, Activation::Relu, Activation::Tanh];
+const ACTS: [Activation; 4] = [Activation::Identity, Activation::Relu, Activation::Tanh, Activation::Sigmoid];
 
 fn act64(a: Activation, x: f64) -> f64 {
     match a {
         Activation::Identity => x,
         Activation::Relu => x.max(0.0),
         Activation::Tanh => x.tanh(),
+        Activation::Sigmoid => 1.0 / (1.0 + (-x).exp()),
     }
 }
 

@@ -21,6 +21,9 @@ pub struct UpdateStats {
     pub alpha: Option<f32>,
     /// The entropy coefficient's loss (SAC with `ent_coef = "auto"`).
     pub alpha_loss: Option<f32>,
+    /// Environment steps so far in which Recovery RL's recovery policy acted instead of the
+    /// task policy (`None` for the other agents).
+    pub recovery_steps: Option<u64>,
 }
 
 /// An off-policy agent as the trainer drives it: pick an action, store the transition, learn.

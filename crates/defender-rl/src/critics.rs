@@ -98,8 +98,22 @@ impl TwinCritics {
         batch_size: usize,
         init: &mut ChaCha8Rng,
     ) -> Result<Self, RlError> {
+        Self::with_output(obs_dim, act_dim, net_arch, adam, batch_size, init, Activation::Identity)
+    }
+
+    /// As [`TwinCritics::new`] with `output` on each critic's output (a sigmoid for a
+    /// probability: Recovery RL's safety critic).
+    pub(crate) fn with_output(
+        obs_dim: usize,
+        act_dim: usize,
+        net_arch: &[usize],
+        adam: AdamConfig,
+        batch_size: usize,
+        init: &mut ChaCha8Rng,
+        output: Activation,
+    ) -> Result<Self, RlError> {
         let mut make = || -> Result<Critic, RlError> {
-            let net = new_mlp(&widths(obs_dim + act_dim, net_arch, 1), Activation::Identity, init)?;
+            let net = new_mlp(&widths(obs_dim + act_dim, net_arch, 1), output, init)?;
             Ok(Critic {
                 target: net.clone(),
                 opt: Adam::new(&net, adam),

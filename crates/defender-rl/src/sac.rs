@@ -413,6 +413,7 @@ impl Sac {
             actor_loss: Some(actor_loss),
             alpha: Some(alpha),
             alpha_loss,
+            recovery_steps: None,
         })
     }
 }
@@ -673,6 +674,9 @@ mod tests {
         assert!(sac.act(&[0.3], true, &mut d1).is_err());
     }
 }
+
+#[path = "sac_sample.rs"]
+mod sample;
 
 #[cfg(test)]
 #[path = "sac_bootstrap_tests.rs"]

@@ -229,6 +229,7 @@ impl Td3 {
             actor_loss,
             alpha: None,
             alpha_loss: None,
+            recovery_steps: None,
         })
     }
 }

@@ -31,7 +31,8 @@ pub struct SafetyFlags {
 }
 
 impl SafetyFlags {
-    /// Sets `[safety]` from the flags given (a flag replaces the configuration's section).
+    /// Sets `[safety]` from the flags given (a flag replaces the configuration's section, except
+    /// that `--recovery` keeps a configuration's other Recovery RL settings).
     pub fn apply(&self, config: &mut RunConfig) {
         if let Some(penalty) = self.penalty {
             config.safety = Some(SafetyConfig::Penalty { penalty });
@@ -43,10 +44,16 @@ impl SafetyFlags {
             }));
         }
         if let Some(eps_risk) = self.recovery {
+            // Over a configuration's own Recovery RL settings: its `pretrain_steps` (and
+            // `gamma_risk` without --gamma-risk) stay.
+            let (gamma_risk, base) = match &config.safety {
+                Some(SafetyConfig::Recovery(r)) => (r.gamma_risk, r.clone()),
+                _ => (DEFAULT_GAMMA_RISK, RecoveryConfig::default()),
+            };
             config.safety = Some(SafetyConfig::Recovery(RecoveryConfig {
                 eps_risk,
-                gamma_risk: self.gamma_risk.unwrap_or(DEFAULT_GAMMA_RISK),
-                ..RecoveryConfig::default()
+                gamma_risk: self.gamma_risk.unwrap_or(gamma_risk),
+                ..base
             }));
         }
     }

@@ -9,7 +9,8 @@
 //!   `defender/filter_rate_recent` (the last 100), as `defender_rl.sb3.DefenderCallback` names them;
 //! * every `update_log::EVERY` steps: the `updates.csv` row (`train/critic_loss`, `train/mean_q`,
 //!   `train/actor_loss`, `train/ent_coef`, `train/ent_coef_loss`, `train/n_updates`, as
-//!   Stable-Baselines3 names them), `time/fps` (environment steps per second), and for a DEFENDER
+//!   Stable-Baselines3 names them; Recovery RL's `safety/recovery_steps`, the steps its recovery
+//!   policy has acted so far), `time/fps` (environment steps per second), and for a DEFENDER
 //!   run the dynamics model (`defender/dynamics_error`: the moving average of its prediction
 //!   error on fresh transitions, `defender/dynamics_loss`) and the window's mean costs
 //!   (`defender/mean_safe_cost`, `defender/mean_unsafe_cost`, `defender/filtered_step_rate`);
@@ -103,6 +104,7 @@ pub fn update_scalars(row: &UpdateRow) -> Vec<(&'static str, f64)> {
     v.extend(row.actor_loss.map(|a| ("train/actor_loss", a)));
     v.extend(row.ent_coef.map(|a| ("train/ent_coef", f64::from(a))));
     v.extend(row.ent_coef_loss.map(|a| ("train/ent_coef_loss", a)));
+    v.extend(row.recovery_steps.map(|n| ("safety/recovery_steps", n as f64)));
     v
 }
 

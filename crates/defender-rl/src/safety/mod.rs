@@ -11,6 +11,9 @@
 //! learns from, never what is reported).
 
 pub mod penalty;
+pub mod recovery;
+mod recovery_policy;
+mod risk_critic;
 
 use serde::{Deserialize, Serialize};
 

@@ -1,0 +1,148 @@
+//! Recovery RL through the binary: `defender train --recovery EPS_RISK` runs, pins its
+//! demonstrations in `config.toml`, reports the recovery policy's steps in `updates.csv`, and a
+//! run stopped and resumed ends as the run left alone; without demonstrations, or with TD3, it is
+//! refused naming the key.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+const ENV_ID: &str = "InvertedDoublePendulum-v5";
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
+    c.env("DEFENDER_NN_THREADS", "1");
+    c
+}
+
+fn text(out: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn ok(args: &[&str]) {
+    let out = bin().args(args).output().unwrap();
+    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
+}
+
+/// Small networks, learning from step 300, and a short pretraining (the flag keeps it).
+fn config_file(dir: &Path) -> String {
+    let path = dir.join("recovery.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\nnet_arch = [64, 64]\n\
+             batch_size = 64\n[safety]\nmethod = \"recovery\"\ngamma_risk = 0.7\neps_risk = 0.2\n\
+             pretrain_steps = 200\n"
+        ),
+    )
+    .unwrap();
+    s(&path).to_string()
+}
+
+fn args(config: &str, out: &Path) -> Vec<String> {
+    ["train", "--config", config, "--recovery", "0.3", "--steps", "2000", "--eval-freq", "500", "--seed", "4"]
+        .iter()
+        .map(|a| a.to_string())
+        .chain(["--out".to_string(), s(out).to_string()])
+        .collect()
+}
+
+fn read(dir: &Path, file: &str) -> String {
+    std::fs::read_to_string(dir.join(file)).unwrap()
+}
+
+/// `metrics.csv` without the `wall_seconds` column (the one that depends on the machine).
+fn metrics(dir: &Path) -> Vec<String> {
+    let text = read(dir, "metrics.csv");
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let wall = header.iter().position(|h| *h == "wall_seconds").unwrap();
+    text.lines()
+        .map(|l| {
+            l.split(',').enumerate().filter(|(i, _)| *i != wall).map(|(_, f)| f).collect::<Vec<_>>().join(",")
+        })
+        .collect()
+}
+
+#[test]
+fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = config_file(dir.path());
+    let alone = dir.path().join("alone");
+    ok(&args(&config, &alone).iter().map(String::as_str).collect::<Vec<_>>());
+
+    let written: toml::Table = toml::from_str(&read(&alone, "config.toml")).unwrap();
+    let safety = &written["safety"];
+    assert_eq!(safety["method"].as_str(), Some("recovery"));
+    assert_eq!(safety["eps_risk"].as_float(), Some(0.3), "the flag sets eps_risk");
+    assert_eq!(safety["gamma_risk"].as_float(), Some(0.7), "the configuration's gamma_risk stays");
+    assert_eq!(safety["pretrain_steps"].as_integer(), Some(200));
+    assert!(written["demos"].as_str().unwrap().ends_with(&format!("{ENV_ID}.npz")));
+    assert_eq!(written["demos_sha256"].as_str().map(str::len), Some(64), "the demonstrations are pinned");
+    let updates = read(&alone, "updates.csv");
+    let header = updates.lines().next().unwrap();
+    assert!(header.ends_with(",recovery_steps"), "{header}");
+    let counts: Vec<u64> =
+        updates.lines().skip(1).map(|l| l.rsplit_once(',').unwrap().1.parse().unwrap()).collect();
+    assert!(!counts.is_empty() && counts.windows(2).all(|w| w[0] <= w[1]), "{updates}");
+
+    // The same run stopped by SIGTERM after its first evaluation, then resumed.
+    let out = dir.path().join("stopped");
+    let mut child = bin()
+        .args(args(&config, &out))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !std::fs::read_to_string(out.join("eval.csv")).is_ok_and(|t| t.lines().count() >= 2)
+        && start.elapsed() < Duration::from_secs(120)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let kill = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait().unwrap().code(), Some(143), "the run ended before it was stopped");
+    assert!(out.join("checkpoint/agent/recovery/state.json").exists());
+    ok(&["train", "--out", s(&out), "--resume"]);
+    let (ma, mo) = (metrics(&alone), metrics(&out));
+    let first = ma.iter().zip(&mo).position(|(a, b)| a != b);
+    assert!(ma == mo, "metrics.csv differs from row {first:?}: {:?}", first.map(|i| (&ma[i], &mo[i])));
+    for file in ["eval.csv", "updates.csv"] {
+        assert_eq!(read(&alone, file), read(&out, file), "{file} differs");
+    }
+    let actor = |d: &Path| {
+        let bytes = std::fs::read(d.join("actor.safetensors")).unwrap();
+        let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+        bytes[8 + n..].to_vec()
+    };
+    assert!(actor(&alone) == actor(&out), "the final actors differ");
+}
+
+#[test]
+fn recovery_without_demonstrations_or_with_td3_is_refused_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("no-data");
+    std::fs::create_dir(&empty).unwrap();
+    let out = dir.path().join("x");
+    let base = ["train", "--env", ENV_ID, "--steps", "100", "--recovery", "0.3", "--out", s(&out)];
+    let o = bin().args(base).env("DEFENDER_DATA", &empty).output().unwrap();
+    let msg = text(&o);
+    assert!(!o.status.success() && msg.contains("`demos`") && msg.contains("recovery"), "{msg}");
+    assert!(!msg.contains("panicked"), "{msg}");
+
+    let o = bin().args(base).args(["--algo", "td3"]).output().unwrap();
+    let msg = text(&o);
+    assert!(!o.status.success() && msg.contains("algo = \"td3\""), "{msg}");
+
+    let o = bin()
+        .args(["train", "--env", ENV_ID, "--steps", "100", "--recovery", "1.5", "--out"])
+        .arg(&out)
+        .output();
+    let msg = text(&o.unwrap());
+    assert!(msg.contains("eps_risk"), "{msg}");
+}
