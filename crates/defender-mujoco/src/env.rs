@@ -1,8 +1,10 @@
-//! [`MujocoEnv`]: one Gymnasium v5 task on MuJoCo, implementing [`defender_rl::Env`].
+//! [`MujocoEnv`]: one Gymnasium MuJoCo task on MuJoCo, implementing [`defender_rl::Env`].
 //!
 //! Each rule below follows Gymnasium 1.4.0's `hopper_v5.py`, `walker2d_v5.py`,
-//! `inverted_double_pendulum_v5.py` and `mujoco_env.py`, and is checked against recordings of
-//! Gymnasium itself (`tests/parity.rs`, data from `tools/gym_record.py`).
+//! `inverted_double_pendulum_v5.py`, `hopper_v4.py`, `walker2d_v4.py`, `half_cheetah_v4.py` and
+//! `mujoco_env.py`, and is checked against recordings of Gymnasium itself (`tests/parity.rs`,
+//! data from `tools/gym_record.py`). The velocity tasks add safety-gymnasium 1.0.0's cost
+//! ([`Cost`](crate::Cost)) to their v4 base and change nothing else.
 
 use defender_rl::{BoxSpace, Env, EnvError, Result, Step, StepInfo, TimeLimit, check_vector};
 use mujoco_rs::prelude::{MjData, MjModel, MjtWarning};
@@ -10,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use crate::task::Task;
+use crate::task::{Body, Task, Version};
 
 /// Gymnasium clips the velocities (and IDP's constraint force) it observes to this range.
 const OBS_CLIP: f64 = 10.0;
@@ -25,9 +27,8 @@ const INSTABILITY_WARNINGS: [MjtWarning; 4] = [
     MjtWarning::mjWARN_BADCTRL,
 ];
 
-/// A Gymnasium v5 MuJoCo task (Hopper-v5, Walker2d-v5 or InvertedDoublePendulum-v5) with
-/// Gymnasium's default arguments, without a time limit (use [`make`] for the registered
-/// 1000-step horizon).
+/// A Gymnasium MuJoCo task of the registry ([`crate::registry`]) with Gymnasium's default
+/// arguments, without a time limit (use [`make`] for the registered 1000-step horizon).
 ///
 /// - Actions go to `ctrl` unchanged and MuJoCo steps `frame_skip` times, as in
 ///   `MujocoEnv.do_simulation`: Gymnasium does not clip actions, and neither do we. MuJoCo clamps
@@ -38,8 +39,9 @@ const INSTABILITY_WARNINGS: [MjtWarning; 4] = [
 ///   next `mj_step` recomputes.
 /// - `reset(seed)` draws the initial state from Gymnasium's distributions (uniform noise of
 ///   `reset_noise_scale` on qpos, and on qvel for Hopper/Walker2d; Gaussian qvel noise for
-///   InvertedDoublePendulum) with this environment's own ChaCha8 generator (seeded with 0 at
+///   HalfCheetah and InvertedDoublePendulum) with this environment's own ChaCha8 generator (seeded with 0 at
 ///   construction); the draws are not numpy's, so a seed gives a different state than in Python.
+/// - A step's cost follows the task's [`Cost`](crate::Cost) rule ([`Task::cost`]).
 /// - After a terminated step, [`Env::step`] returns [`EnvError::NeedsReset`] until the next reset.
 pub struct MujocoEnv {
     task: Task,
@@ -193,14 +195,19 @@ impl MujocoEnv {
         let qpos = self.data.qpos();
         let qvel = self.data.qvel();
         let clip = |v: f64| v.clamp(-OBS_CLIP, OBS_CLIP);
-        match self.task {
+        match self.task.body() {
             // position[1:] (x excluded), clip(qvel, -10, 10)
-            Task::Hopper | Task::Walker2d => {
+            Body::Hopper | Body::Walker2d => {
                 obs.extend_from_slice(&qpos[1..]);
                 obs.extend(qvel.iter().copied().map(clip));
             }
+            // position[1:], qvel unclipped (half_cheetah_v4.py does not clip)
+            Body::HalfCheetah => {
+                obs.extend_from_slice(&qpos[1..]);
+                obs.extend_from_slice(qvel);
+            }
             // qpos[:1], sin(qpos[1:]), cos(qpos[1:]), clip(qvel), clip(qfrc_constraint)[:1]
-            Task::InvertedDoublePendulum => {
+            Body::InvertedDoublePendulum => {
                 obs.push(qpos[0]);
                 obs.extend(qpos[1..].iter().map(|q| q.sin()));
                 obs.extend(qpos[1..].iter().map(|q| q.cos()));
@@ -211,18 +218,19 @@ impl MujocoEnv {
         obs
     }
 
-    /// Gymnasium's `is_healthy` for Hopper and Walker2d (open intervals, as the Python `<`).
+    /// Gymnasium's `is_healthy` for Hopper and Walker2d (open intervals, as the Python `<`); the
+    /// same ranges in v4 and v5. HalfCheetah and InvertedDoublePendulum have none.
     fn is_healthy(&self) -> bool {
         let qpos = self.data.qpos();
         let (z, angle) = (qpos[1], qpos[2]);
-        match self.task {
-            Task::Hopper => {
+        match self.task.body() {
+            Body::Hopper => {
                 // state_vector()[2:]: qpos[2:] then the unclipped qvel.
                 let state_ok = qpos[2..].iter().chain(self.data.qvel()).all(|&s| -100.0 < s && s < 100.0);
                 state_ok && 0.7 < z && z < f64::INFINITY && -0.2 < angle && angle < 0.2
             }
-            Task::Walker2d => 0.8 < z && z < 2.0 && -1.0 < angle && angle < 1.0,
-            Task::InvertedDoublePendulum => true,
+            Body::Walker2d => 0.8 < z && z < 2.0 && -1.0 < angle && angle < 1.0,
+            Body::HalfCheetah | Body::InvertedDoublePendulum => true,
         }
     }
 
@@ -246,8 +254,8 @@ impl MujocoEnv {
         Step {
             obs,
             reward: 0.0,
-            // An unstable simulation ends the episode as terminated: a crash, and costs as one.
-            cost: 1.0,
+            // An unstable simulation ends the episode as terminated: a crash (see `Cost`).
+            cost: self.task.cost().of_unstable_step(),
             terminated: true,
             truncated: false,
             info: StepInfo { unstable: true, filtered: false },
@@ -280,9 +288,11 @@ impl Env for MujocoEnv {
             *q += self.rng.random_range(-scale..scale);
         }
         for v in &mut qvel {
-            *v += match self.task {
-                Task::Hopper | Task::Walker2d => self.rng.random_range(-scale..scale),
-                Task::InvertedDoublePendulum => self.rng.sample::<f64, _>(StandardNormal) * scale,
+            *v += match self.task.body() {
+                Body::Hopper | Body::Walker2d => self.rng.random_range(-scale..scale),
+                Body::HalfCheetah | Body::InvertedDoublePendulum => {
+                    self.rng.sample::<f64, _>(StandardNormal) * scale
+                }
             };
         }
         self.reset_to(&qpos, &qvel)
@@ -306,16 +316,21 @@ impl Env for MujocoEnv {
                 return Ok(self.unstable_step("MuJoCo warned of a bad qpos, qvel, qacc or ctrl"));
             }
         }
-        let (reward, terminated) = match self.task {
-            Task::Hopper | Task::Walker2d => {
-                let x_velocity = (self.data.qpos()[0] - x_before) / self.dt;
+        // x_velocity as Gymnasium's `info["x_velocity"]`: the forward reward and the velocity cost.
+        let x_velocity = (self.data.qpos()[0] - x_before) / self.dt;
+        let squared_action = action.iter().fold(0.0, |acc, a| acc + a * a);
+        let (reward, terminated) = match self.task.body() {
+            Body::Hopper | Body::Walker2d => {
                 let forward_reward = x_velocity; // forward_reward_weight = 1
                 let healthy = self.is_healthy();
-                let healthy_reward = if healthy { 1.0 } else { 0.0 };
-                let ctrl_cost = 1e-3 * action.iter().fold(0.0, |acc, a| acc + a * a);
+                // v4 pays the healthy reward on the falling step too (see `Version`).
+                let healthy_reward = if healthy || self.task.version() == Version::V4 { 1.0 } else { 0.0 };
+                let ctrl_cost = 1e-3 * squared_action;
                 ((forward_reward + healthy_reward) - ctrl_cost, !healthy)
             }
-            Task::InvertedDoublePendulum => {
+            // forward_reward_weight 1, ctrl_cost_weight 0.1; never terminates.
+            Body::HalfCheetah => (x_velocity - 0.1 * squared_action, false),
+            Body::InvertedDoublePendulum => {
                 // site_xpos as mj_step left it (computed before its last integration), as Gymnasium reads it.
                 let [x, _, y] = self.data.site_xpos()[0];
                 let terminated = y <= 1.0;
@@ -332,8 +347,7 @@ impl Env for MujocoEnv {
             return Ok(self.unstable_step("non-finite observation or reward"));
         }
         self.needs_reset = terminated;
-        // The crash cost of the three tasks: 1 on the step where the task terminates the episode.
-        let cost = if terminated { 1.0 } else { 0.0 };
+        let cost = self.task.cost().of_step(terminated, x_velocity);
         Ok(Step { obs, reward, cost, terminated, truncated: false, info: StepInfo::default() })
     }
 }

@@ -4,7 +4,7 @@ use defender_rl::{Env, EnvError, Result};
 
 use crate::env::MujocoEnv;
 
-/// What a replay produced: observations, rewards and termination flags, row-major.
+/// What a replay produced: observations, rewards, costs and termination flags, row-major.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Rollout {
     /// Observation dimension (the row length of `obs`).
@@ -13,6 +13,9 @@ pub struct Rollout {
     pub obs: Vec<f64>,
     /// `[steps]`: the reward of each step.
     pub rewards: Vec<f64>,
+    /// `[steps]`: the cost of each step (the task's [`Cost`](crate::Cost) rule; all 0 for a
+    /// task without one).
+    pub costs: Vec<f64>,
     /// `[steps]`: whether each step terminated (only the last one can).
     pub terminated: Vec<bool>,
     /// Whether the last step ended because MuJoCo became unstable.
@@ -65,6 +68,7 @@ pub fn replay(env: &mut MujocoEnv, qpos: &[f64], qvel: &[f64], actions: &[f64]) 
         obs_dim,
         obs: Vec::with_capacity((steps + 1) * obs_dim),
         rewards: Vec::with_capacity(steps),
+        costs: Vec::with_capacity(steps),
         terminated: Vec::with_capacity(steps),
         unstable: false,
     };
@@ -73,6 +77,7 @@ pub fn replay(env: &mut MujocoEnv, qpos: &[f64], qvel: &[f64], actions: &[f64]) 
         let step = env.step(action)?;
         rollout.obs.extend_from_slice(&step.obs);
         rollout.rewards.push(step.reward);
+        rollout.costs.push(step.cost);
         rollout.terminated.push(step.terminated);
         rollout.unstable = step.info.unstable;
         if step.terminated {

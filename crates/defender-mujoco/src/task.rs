@@ -2,7 +2,10 @@
 
 use defender_rl::{EnvError, Result};
 
-/// One of the Gymnasium v5 MuJoCo tasks this crate implements.
+use crate::cost::Cost;
+
+/// One of the MuJoCo tasks this crate implements: Gymnasium's v5 and v4 tasks and
+/// Safety-Gymnasium's velocity tasks (a v4 task with a velocity cost).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Task {
@@ -12,14 +15,45 @@ pub enum Task {
     Walker2d,
     /// `InvertedDoublePendulum-v5`: two poles on a cart; 9-dimensional observation, 1 force.
     InvertedDoublePendulum,
+    /// `Hopper-v4`: as `Hopper-v5` but the healthy reward is paid on the falling step too.
+    HopperV4,
+    /// `Walker2d-v4`: `walker2d.xml` (both feet friction 0.9), healthy reward as `Hopper-v4`.
+    Walker2dV4,
+    /// `HalfCheetah-v4`: a planar runner that cannot fall; 17-dimensional observation, 6 torques.
+    HalfCheetahV4,
+    /// `SafetyHopperVelocity-v1`: `Hopper-v4` with a cost on x-velocity above 0.7402.
+    SafetyHopperVelocity,
+    /// `SafetyWalker2dVelocity-v1`: `Walker2d-v4` with a cost on x-velocity above 2.3415.
+    SafetyWalker2dVelocity,
+    /// `SafetyHalfCheetahVelocity-v1`: `HalfCheetah-v4` with a cost on x-velocity above 3.2096.
+    SafetyHalfCheetahVelocity,
+}
+
+/// The robot of a task: what fixes its model, observation, health and reset noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) enum Body {
+    Hopper,
+    Walker2d,
+    HalfCheetah,
+    InvertedDoublePendulum,
+}
+
+/// Gymnasium's version of a task's rules where v4 and v5 differ for our tasks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) enum Version {
+    /// v4: `healthy_reward` is `float(is_healthy or terminate_when_unhealthy)`, so 1 on every
+    /// step including the one that falls; Walker2d uses `walker2d.xml`.
+    V4,
+    /// v5: `healthy_reward` is `is_healthy`, 0 on the falling step; Walker2d uses `walker2d_v5.xml`.
+    V5,
 }
 
 /// What the registry knows about a task without building it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskSpec {
     /// The task.
     pub task: Task,
-    /// The Gymnasium id (`Hopper-v5`, ...).
+    /// The Gymnasium (or Safety-Gymnasium) id (`Hopper-v5`, ...).
     pub id: &'static str,
     /// Observation dimension.
     pub obs_dim: usize,
@@ -29,37 +63,48 @@ pub struct TaskSpec {
     pub max_episode_steps: usize,
     /// MuJoCo physics steps per environment step (Gymnasium's `frame_skip`).
     pub frame_skip: usize,
+    /// What a step costs ([`Step::cost`](defender_rl::Step)).
+    pub cost: Cost,
 }
 
-/// Every task, in a stable order (the order of `defender env list`).
-pub const TASKS: [TaskSpec; 3] = [
-    TaskSpec {
-        task: Task::Hopper,
-        id: "Hopper-v5",
-        obs_dim: 11,
-        act_dim: 3,
-        max_episode_steps: 1000,
-        frame_skip: 4,
-    },
-    TaskSpec {
-        task: Task::Walker2d,
-        id: "Walker2d-v5",
-        obs_dim: 17,
-        act_dim: 6,
-        max_episode_steps: 1000,
-        frame_skip: 4,
-    },
-    TaskSpec {
-        task: Task::InvertedDoublePendulum,
-        id: "InvertedDoublePendulum-v5",
-        obs_dim: 9,
-        act_dim: 1,
-        max_episode_steps: 1000,
-        frame_skip: 5,
-    },
+const fn spec(task: Task, id: &'static str, dims: (usize, usize), frame_skip: usize, cost: Cost) -> TaskSpec {
+    TaskSpec { task, id, obs_dim: dims.0, act_dim: dims.1, max_episode_steps: 1000, frame_skip, cost }
+}
+
+/// Every task, in a stable order (the order of `defender env list`). All have Gymnasium's
+/// horizon of 1000 steps (Safety-Gymnasium registers its velocity tasks with the same).
+pub const TASKS: [TaskSpec; 9] = [
+    spec(Task::Hopper, "Hopper-v5", (11, 3), 4, Cost::Crash),
+    spec(Task::Walker2d, "Walker2d-v5", (17, 6), 4, Cost::Crash),
+    spec(Task::InvertedDoublePendulum, "InvertedDoublePendulum-v5", (9, 1), 5, Cost::Crash),
+    spec(Task::HopperV4, "Hopper-v4", (11, 3), 4, Cost::None),
+    spec(Task::Walker2dV4, "Walker2d-v4", (17, 6), 4, Cost::None),
+    spec(Task::HalfCheetahV4, "HalfCheetah-v4", (17, 6), 5, Cost::None),
+    // Thresholds of safety-gymnasium 1.0.0's `safety_*_velocity_v1.py`.
+    spec(
+        Task::SafetyHopperVelocity,
+        "SafetyHopperVelocity-v1",
+        (11, 3),
+        4,
+        Cost::Velocity { threshold: 0.7402 },
+    ),
+    spec(
+        Task::SafetyWalker2dVelocity,
+        "SafetyWalker2dVelocity-v1",
+        (17, 6),
+        4,
+        Cost::Velocity { threshold: 2.3415 },
+    ),
+    spec(
+        Task::SafetyHalfCheetahVelocity,
+        "SafetyHalfCheetahVelocity-v1",
+        (17, 6),
+        5,
+        Cost::Velocity { threshold: 3.2096 },
+    ),
 ];
 
-/// The registry: every task with its id, dimensions and horizon.
+/// The registry: every task with its id, dimensions, horizon and cost.
 pub fn registry() -> &'static [TaskSpec] {
     &TASKS
 }
@@ -78,10 +123,25 @@ impl Task {
 
     /// The registry entry of this task.
     pub fn spec(self) -> &'static TaskSpec {
+        // Every variant has an entry (the registry test checks it); the fallback is never taken.
+        TASKS.iter().find(|s| s.task == self).unwrap_or(&TASKS[0])
+    }
+
+    /// The robot: model, observation, health and reset noise.
+    pub(crate) fn body(self) -> Body {
         match self {
-            Task::Hopper => &TASKS[0],
-            Task::Walker2d => &TASKS[1],
-            Task::InvertedDoublePendulum => &TASKS[2],
+            Task::Hopper | Task::HopperV4 | Task::SafetyHopperVelocity => Body::Hopper,
+            Task::Walker2d | Task::Walker2dV4 | Task::SafetyWalker2dVelocity => Body::Walker2d,
+            Task::HalfCheetahV4 | Task::SafetyHalfCheetahVelocity => Body::HalfCheetah,
+            Task::InvertedDoublePendulum => Body::InvertedDoublePendulum,
+        }
+    }
+
+    /// The Gymnasium version whose rules the task follows (the velocity tasks wrap v4).
+    pub(crate) fn version(self) -> Version {
+        match self {
+            Task::Hopper | Task::Walker2d | Task::InvertedDoublePendulum => Version::V5,
+            _ => Version::V4,
         }
     }
 
@@ -91,12 +151,14 @@ impl Task {
     }
 
     /// The file name of the task's MuJoCo model in Gymnasium's `envs/mujoco/assets/`.
-    /// Walker2d-v5 uses `walker2d_v5.xml` (feet friction 1.9), not the older `walker2d.xml`.
+    /// Walker2d-v5 uses `walker2d_v5.xml` (left foot friction 1.9), v4 the older `walker2d.xml`.
     pub fn xml_file(self) -> &'static str {
-        match self {
-            Task::Hopper => "hopper.xml",
-            Task::Walker2d => "walker2d_v5.xml",
-            Task::InvertedDoublePendulum => "inverted_double_pendulum.xml",
+        match (self.body(), self.version()) {
+            (Body::Hopper, _) => "hopper.xml",
+            (Body::Walker2d, Version::V5) => "walker2d_v5.xml",
+            (Body::Walker2d, Version::V4) => "walker2d.xml",
+            (Body::HalfCheetah, _) => "half_cheetah.xml",
+            (Body::InvertedDoublePendulum, _) => "inverted_double_pendulum.xml",
         }
     }
 
@@ -130,12 +192,17 @@ impl Task {
     }
 
     /// Scale of the initial-state noise (`reset_noise_scale`): 5e-3 for Hopper and Walker2d,
-    /// 0.1 for InvertedDoublePendulum.
+    /// 0.1 for HalfCheetah and InvertedDoublePendulum.
     pub fn reset_noise_scale(self) -> f64 {
-        match self {
-            Task::Hopper | Task::Walker2d => 5e-3,
-            Task::InvertedDoublePendulum => 0.1,
+        match self.body() {
+            Body::Hopper | Body::Walker2d => 5e-3,
+            Body::HalfCheetah | Body::InvertedDoublePendulum => 0.1,
         }
+    }
+
+    /// The task's cost rule.
+    pub fn cost(self) -> Cost {
+        self.spec().cost
     }
 }
 
@@ -153,5 +220,27 @@ mod tests {
         assert!(
             err.contains("hopper-v5") && err.contains("Hopper-v5, Walker2d-v5, InvertedDoublePendulum-v5")
         );
+    }
+
+    #[test]
+    fn velocity_tasks_wrap_their_v4_base() {
+        for (safety, base) in [
+            (Task::SafetyHopperVelocity, Task::HopperV4),
+            (Task::SafetyWalker2dVelocity, Task::Walker2dV4),
+            (Task::SafetyHalfCheetahVelocity, Task::HalfCheetahV4),
+        ] {
+            let (s, b) = (safety.spec(), base.spec());
+            assert_eq!(
+                (s.obs_dim, s.act_dim, s.frame_skip, s.max_episode_steps),
+                (b.obs_dim, b.act_dim, b.frame_skip, 1000)
+            );
+            assert_eq!(
+                (safety.body(), safety.version(), safety.xml_file()),
+                (base.body(), Version::V4, base.xml_file())
+            );
+            assert!(matches!(s.cost, Cost::Velocity { .. }) && b.cost == Cost::None);
+        }
+        assert_eq!(Task::Walker2dV4.xml_file(), "walker2d.xml");
+        assert_eq!(Task::Walker2d.xml_file(), "walker2d_v5.xml");
     }
 }

@@ -9,7 +9,7 @@ use defender_rl::Env;
 
 #[test]
 fn registry_matches_the_built_environments() {
-    assert_eq!(registry().len(), 3);
+    assert_eq!(registry().len(), 9);
     for spec in registry() {
         let env = make(spec.id).unwrap();
         assert_eq!(env.id(), spec.id);
@@ -20,16 +20,17 @@ fn registry_matches_the_built_environments() {
         assert!(env.action_space().low().iter().all(|&l| l == -1.0));
         assert!(env.action_space().high().iter().all(|&h| h == 1.0));
     }
+    let dims: Vec<(usize, usize)> = registry().iter().map(|s| (s.obs_dim, s.act_dim)).collect();
     assert_eq!(
-        (registry()[0].obs_dim, registry()[1].obs_dim, registry()[2].obs_dim),
-        (11, 17, 9),
+        dims,
+        [(11, 3), (17, 6), (9, 1), (11, 3), (17, 6), (17, 6), (11, 3), (17, 6), (17, 6)],
         "Gymnasium's dimensions"
     );
 }
 
 #[test]
 fn unknown_id_is_an_error_listing_the_known_ids() {
-    let err = make("Hopper-v4").unwrap_err();
+    let err = make("Hopper-v3").unwrap_err();
     assert!(matches!(err, EnvError::UnknownEnv { .. }));
     let msg = err.to_string();
     for spec in registry() {
@@ -137,6 +138,30 @@ fn reset_noise_follows_gymnasium_distributions_and_the_seed() {
     assert!(max_abs_qpos < 0.1 && max_abs_qpos > 0.09, "{max_abs_qpos}");
     let std = (sum_sq / n).sqrt();
     assert!((std - 0.1).abs() < 0.01, "qvel noise std {std}");
+}
+
+#[test]
+fn half_cheetah_resets_with_gaussian_velocities_and_observes_them_unclipped() {
+    // half_cheetah_v4.py: qpos ~ U(-0.1, 0.1), qvel ~ 0.1 * N(0, 1), observation qpos[1:] and qvel.
+    let mut env = MujocoEnv::new(Task::SafetyHalfCheetahVelocity).unwrap();
+    env.reset(Some(5)).unwrap();
+    let (mut sum_sq, mut max_abs_qpos, mut n) = (0.0, 0.0f64, 0.0);
+    for _ in 0..300 {
+        env.reset(None).unwrap();
+        max_abs_qpos = env.qpos().iter().fold(max_abs_qpos, |m, q| m.max(q.abs()));
+        for v in env.qvel() {
+            sum_sq += v * v;
+            n += 1.0;
+        }
+    }
+    assert!(max_abs_qpos < 0.1 && max_abs_qpos > 0.09, "{max_abs_qpos}");
+    let std = (sum_sq / n).sqrt();
+    assert!((std - 0.1).abs() < 0.01, "qvel noise std {std}");
+    let (qpos, mut qvel) = (env.qpos().to_vec(), env.qvel().to_vec());
+    qvel[3] = 25.0;
+    env.set_state(&qpos, &qvel).unwrap();
+    let obs = env.observation();
+    assert_eq!((&obs[..8], &obs[8..]), (&qpos[1..], &qvel[..]), "no clip on HalfCheetah's velocities");
 }
 
 /// Captures what `tracing` writes on this thread.

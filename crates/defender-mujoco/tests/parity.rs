@@ -1,59 +1,21 @@
 //! Parity with Gymnasium 1.4.0: replays the rollouts recorded by `tools/gym_record.py`
 //! (Gymnasium's own environments, same MuJoCo 3.17.0) and compares every observation, reward
-//! and termination flag, through termination, within 1e-6.
+//! and termination flag, through termination, within 1e-6. Safety-Gymnasium's velocity tasks
+//! are their v4 base with a cost: they replay the v4 recordings (their costs: velocity_cost.rs).
 //!
 //! Regenerate the data: `.deps/tools-venv/bin/python tools/gym_record.py`.
 
 #![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
 
-use std::path::Path;
+mod common;
 
 use defender_mujoco::{MujocoEnv, Task, replay};
 
 const TOL: f64 = 1e-6;
 
-struct Case {
-    qpos: Vec<f64>,
-    qvel: Vec<f64>,
-    actions: Vec<f64>,
-    obs: Vec<f64>,
-    obs_shape: Vec<u64>,
-    rew: Vec<f64>,
-    terminated: Vec<bool>,
-}
-
-fn array<T: npyz::Deserialize>(
-    npz: &mut npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>,
-    name: &str,
-) -> (Vec<T>, Vec<u64>) {
-    let arr = npz.by_name(name).unwrap().unwrap_or_else(|| panic!("missing array {name}"));
-    let shape = arr.shape().to_vec();
-    (arr.into_vec().unwrap(), shape)
-}
-
-fn load(file: &str) -> Vec<Case> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(file);
-    let mut npz = npyz::npz::NpzArchive::open(&path).unwrap();
-    let (cases, _) = array::<i64>(&mut npz, "cases");
-    (0..cases[0])
-        .map(|i| {
-            let (obs, obs_shape) = array(&mut npz, &format!("case{i}_obs"));
-            Case {
-                qpos: array(&mut npz, &format!("case{i}_qpos")).0,
-                qvel: array(&mut npz, &format!("case{i}_qvel")).0,
-                actions: array(&mut npz, &format!("case{i}_actions")).0,
-                obs,
-                obs_shape,
-                rew: array(&mut npz, &format!("case{i}_rew")).0,
-                terminated: array(&mut npz, &format!("case{i}_terminated")).0,
-            }
-        })
-        .collect()
-}
-
 /// Replays every recorded case and returns how many ended terminated.
 fn check(task: Task, file: &str) -> usize {
-    let cases = load(file);
+    let cases = common::load(file);
     assert!(cases.len() >= 10, "{file}: expected at least 10 cases");
     let mut env = MujocoEnv::new(task).unwrap();
     let mut terminated_cases = 0;
@@ -92,4 +54,23 @@ fn walker2d_matches_gymnasium() {
 #[test]
 fn inverted_double_pendulum_matches_gymnasium() {
     assert!(check(Task::InvertedDoublePendulum, "inverted_double_pendulum_v5.npz") >= 5);
+}
+
+#[test]
+fn hopper_v4_and_its_velocity_task_match_gymnasium() {
+    // Falls matter here: v4 pays the healthy reward on the falling step, v5 does not.
+    assert!(check(Task::HopperV4, "hopper_v4.npz") >= 5, "the data must include falls");
+    check(Task::SafetyHopperVelocity, "hopper_v4.npz");
+}
+
+#[test]
+fn walker2d_v4_and_its_velocity_task_match_gymnasium() {
+    assert!(check(Task::Walker2dV4, "walker2d_v4.npz") >= 5, "the data must include falls");
+    check(Task::SafetyWalker2dVelocity, "walker2d_v4.npz");
+}
+
+#[test]
+fn half_cheetah_v4_and_its_velocity_task_match_gymnasium() {
+    assert_eq!(check(Task::HalfCheetahV4, "half_cheetah_v4.npz"), 0, "HalfCheetah never terminates");
+    check(Task::SafetyHalfCheetahVelocity, "half_cheetah_v4.npz");
 }

@@ -18,6 +18,10 @@ pub const STANDING_TOLERANCE: f64 = 0.1;
 pub fn horizon(env: &str) -> Option<u64> {
     match env {
         "Hopper-v5" | "Walker2d-v5" | "InvertedDoublePendulum-v5" => Some(1000),
+        "Hopper-v4" | "Walker2d-v4" | "HalfCheetah-v4" => Some(1000),
+        "SafetyHopperVelocity-v1" | "SafetyWalker2dVelocity-v1" | "SafetyHalfCheetahVelocity-v1" => {
+            Some(1000)
+        }
         "Pendulum-v1" => Some(200),
         _ => None,
     }
@@ -28,7 +32,8 @@ pub fn horizon(env: &str) -> Option<u64> {
 /// within [`STANDING_TOLERANCE`] of the mean length (`|mean_return - mean_length| <= 0.1 x
 /// mean_length`). On Hopper-v5 and Walker2d-v5 the healthy reward alone (1 per step) gives
 /// return ~= length; a hopping or walking agent earns several times more. On
-/// InvertedDoublePendulum-v5 (~9.3 per step while balanced) it is never true.
+/// InvertedDoublePendulum-v5 (~9.3 per step while balanced) it is never true. HalfCheetah has no
+/// healthy reward: standing still earns ~0 there, so this measure never flags it.
 pub fn is_standing(eval: &EvalRow, horizon: u64) -> bool {
     let length = eval.mean_length;
     length >= horizon as f64 && (eval.mean_return - length).abs() <= STANDING_TOLERANCE * length

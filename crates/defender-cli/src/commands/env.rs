@@ -5,15 +5,16 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
-use defender_mujoco::{MujocoEnv, Rollout, registry, replay};
+use defender_mujoco::{Cost, MujocoEnv, Rollout, registry, replay};
 use defender_rl::Env;
 
 /// `defender env` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum EnvCommand {
-    /// List the tasks with their observation and action dimensions and horizon.
+    /// List the tasks with their observation and action dimensions, horizon and cost rule.
     List,
-    /// Replay actions from a given state and write observations, rewards and termination flags.
+    /// Replay actions from a given state and write observations, rewards, costs and termination
+    /// flags.
     #[command(after_help = REPLAY_HELP)]
     Replay(ReplayArgs),
 }
@@ -24,6 +25,7 @@ set_state after reset) and applies the actions in order until the first terminat
 last action; no time limit applies. OUT.npz holds:
   obs         float64 [T'+1, obs_dim]  (row 0 = observation of the given state)
   rew         float64 [T']
+  cost        float64 [T']  (only for a task with a cost rule: see `defender env list`)
   terminated  bool    [T']
 It is written atomically (a temporary file in the same folder, then renamed).
 
@@ -46,7 +48,7 @@ pub struct ReplayArgs {
     /// Actions: float64 .npy of shape [T, act_dim].
     #[arg(long, value_name = "A.npy")]
     actions: PathBuf,
-    /// Output .npz (obs, rew, terminated).
+    /// Output .npz (obs, rew, cost, terminated).
     #[arg(long, value_name = "OUT.npz")]
     out: PathBuf,
 }
@@ -66,40 +68,52 @@ pub fn run(cmd: EnvCommand) -> anyhow::Result<()> {
     }
 }
 
-/// The task registry as an aligned table.
+/// The task registry as an aligned table: `cost` is the rule (`crash`, `velocity > 0.7402`,
+/// `none`), `threshold` the velocity threshold alone (`-` for the others), for scripts.
 fn list_table() -> String {
-    let header = ["id", "obs_dim", "act_dim", "horizon"];
-    let rows: Vec<[String; 4]> = registry()
+    const HEADER: [&str; 6] = ["id", "obs_dim", "act_dim", "horizon", "cost", "threshold"];
+    let rows: Vec<[String; 6]> = registry()
         .iter()
         .map(|s| {
-            [s.id.to_string(), s.obs_dim.to_string(), s.act_dim.to_string(), s.max_episode_steps.to_string()]
+            [
+                s.id.to_string(),
+                s.obs_dim.to_string(),
+                s.act_dim.to_string(),
+                s.max_episode_steps.to_string(),
+                s.cost.to_string(),
+                s.cost.threshold().map_or_else(|| "-".to_string(), |t| t.to_string()),
+            ]
         })
         .collect();
-    let width = |c: usize| rows.iter().map(|r| r[c].len()).chain([header[c].len()]).max().unwrap_or(0);
-    let widths = [width(0), width(1), width(2), width(3)];
+    let widths: Vec<usize> = (0..HEADER.len())
+        .map(|c| rows.iter().map(|r| r[c].len()).chain([HEADER[c].len()]).max().unwrap_or(0))
+        .collect();
     let mut out = String::new();
-    let mut line = |cells: [&str; 4]| {
-        out.push_str(&format!(
-            "{:<w0$}  {:>w1$}  {:>w2$}  {:>w3$}\n",
-            cells[0],
-            cells[1],
-            cells[2],
-            cells[3],
-            w0 = widths[0],
-            w1 = widths[1],
-            w2 = widths[2],
-            w3 = widths[3]
-        ));
+    let mut line = |cells: [&str; 6]| {
+        // Text left-aligned (id, cost), numbers right-aligned.
+        let padded: Vec<String> = cells
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(
+                |(c, (cell, &w))| {
+                    if c == 0 || c == 4 { format!("{cell:<w$}") } else { format!("{cell:>w$}") }
+                },
+            )
+            .collect();
+        out.push_str(&padded.join("  "));
+        out.push('\n');
     };
-    line(header);
+    line(HEADER);
     for r in &rows {
-        line([&r[0], &r[1], &r[2], &r[3]]);
+        line([&r[0], &r[1], &r[2], &r[3], &r[4], &r[5]]);
     }
     out
 }
 
 fn run_replay(args: &ReplayArgs) -> anyhow::Result<()> {
     let mut env = MujocoEnv::from_id(&args.env)?;
+    let has_cost = env.task().cost() != Cost::None;
     let (nq, nv, act_dim) = (env.qpos().len(), env.qvel().len(), env.action_space().dim());
     let id = env.id().to_owned();
     let qpos = read_f64_npy(&args.qpos, &[Some(nq)], &format!("{id} qpos [nq = {nq}]"))?;
@@ -111,14 +125,16 @@ fn run_replay(args: &ReplayArgs) -> anyhow::Result<()> {
     )?;
     let rollout = replay(&mut env, &qpos, &qvel, &actions)
         .with_context(|| format!("replaying {} on {id}", args.actions.display()))?;
-    write_rollout(&args.out, &rollout).with_context(|| format!("writing {}", args.out.display()))?;
+    write_rollout(&args.out, &rollout, has_cost)
+        .with_context(|| format!("writing {}", args.out.display()))?;
     let end = match (rollout.terminated.last(), rollout.unstable) {
         (_, true) => "terminated (MuJoCo unstable)",
         (Some(true), false) => "terminated",
         _ => "not terminated",
     };
+    let cost = if has_cost { format!(", cost {}", rollout.costs.iter().sum::<f64>()) } else { String::new() };
     say!(
-        "{id}: {} of {} steps, {end}, return {:.6} -> {}",
+        "{id}: {} of {} steps, {end}, return {:.6}{cost} -> {}",
         rollout.steps(),
         actions.len() / act_dim,
         rollout.rewards.iter().sum::<f64>(),
@@ -155,19 +171,22 @@ fn read_f64_npy(path: &Path, shape: &[Option<usize>], what: &str) -> anyhow::Res
         .with_context(|| format!("{}: reading the data (expected {})", path.display(), expected()))
 }
 
-/// Writes obs/rew/terminated to `out` atomically (the project's one `.npz` writer: a temporary
-/// file in the same folder, fsync'd, then renamed).
-fn write_rollout(out: &Path, rollout: &Rollout) -> anyhow::Result<()> {
+/// Writes obs/rew/cost/terminated to `out` atomically (the project's one `.npz` writer: a
+/// temporary file in the same folder, fsync'd, then renamed). `cost` only when the task has a
+/// cost rule (`has_cost`): a task without one writes the arrays it always did.
+fn write_rollout(out: &Path, rollout: &Rollout, has_cost: bool) -> anyhow::Result<()> {
     use defender::npz::{Data, write_arrays};
     let steps = rollout.steps();
-    write_arrays(
-        out,
-        &[
-            ("obs", &[steps + 1, rollout.obs_dim], Data::F64(&rollout.obs)),
-            ("rew", &[steps], Data::F64(&rollout.rewards)),
-            ("terminated", &[steps], Data::Bool(&rollout.terminated)),
-        ],
-    )?;
+    let (obs_shape, shape) = ([steps + 1, rollout.obs_dim], [steps]);
+    let mut arrays = vec![
+        ("obs", &obs_shape[..], Data::F64(&rollout.obs)),
+        ("rew", &shape[..], Data::F64(&rollout.rewards)),
+    ];
+    if has_cost {
+        arrays.push(("cost", &shape[..], Data::F64(&rollout.costs)));
+    }
+    arrays.push(("terminated", &shape[..], Data::Bool(&rollout.terminated)));
+    write_arrays(out, &arrays)?;
     Ok(())
 }
 
@@ -181,7 +200,11 @@ mod tests {
         let lines: Vec<&str> = table.lines().collect();
         assert_eq!(lines.len(), 1 + registry().len());
         assert!(lines.iter().all(|l| l.len() == lines[0].len()), "{table}");
-        assert!(lines[1].starts_with("Hopper-v5") && lines[1].ends_with("1000"), "{table}");
+        assert!(lines[1].starts_with("Hopper-v5") && lines[1].contains(" 1000  crash "), "{table}");
         assert!(table.contains("InvertedDoublePendulum-v5"));
+        let hopper = lines.iter().find(|l| l.starts_with("SafetyHopperVelocity-v1")).unwrap();
+        assert!(hopper.contains("velocity > 0.7402") && hopper.ends_with("0.7402"), "{table}");
+        let cheetah = lines.iter().find(|l| l.starts_with("HalfCheetah-v4")).unwrap();
+        assert!(cheetah.contains(" none ") && cheetah.ends_with('-'), "{table}");
     }
 }

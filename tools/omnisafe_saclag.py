@@ -1,0 +1,159 @@
+#!/usr/bin/env python3
+"""Train OmniSafe 0.5.0's SACLag on a Safety-Gymnasium velocity task, as a peer beside our runs.
+
+OmniSafe is measured against, not used by the project (docs/peers.md). This runs its SACLag with
+its own defaults (configs/off-policy/SACLag.yaml: 2,000 steps an epoch, 10,000 random steps, the
+multiplier frozen for 100 warm-up epochs, one evaluation episode an epoch) and the field's cost
+limit 25, on one seed and budget, one CPU thread. OmniSafe logs by epoch (progress.csv, means over
+the epoch's episodes); to plot its curve beside ours episode by episode, this also writes every
+training episode as it ends:
+
+  OUT/episodes.csv   episode,total_steps,return,length,cost
+                     episode from 0; total_steps = environment steps taken when it ended (as
+                     our metrics.csv's total_steps); return and cost are the episode's sums of the
+                     raw reward and cost (OmniSafe's `original_reward`/`original_cost`, before its
+                     cost normalisation), length its steps.
+  OUT/run.json       the arguments and the versions of omnisafe, safety-gymnasium, torch, mujoco
+  OUT/SACLag-{ENV}/seed-SSS-.../  OmniSafe's own logs (progress.csv, config.json, tb/, torch_save/)
+
+Run (after `bash tools/omnisafe-venv.sh`), e.g. one seed at the shared budget:
+  .deps/omnisafe-venv/bin/python tools/omnisafe_saclag.py --env SafetyHopperVelocity-v1 \\
+      --seed 0 --steps 300000 --out results/velocity/omnisafe/hopper-s0
+The budget must be a multiple of --steps-per-epoch (OmniSafe's rule). The tasks run on
+safety-gymnasium's MuJoCo 2.3.3, not our MuJoCo 3.17: the same task and cost rule, not the same
+trajectories.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+from importlib import metadata
+
+VELOCITY_TASKS = (
+    "SafetyHopperVelocity-v1",
+    "SafetyWalker2dVelocity-v1",
+    "SafetyHalfCheetahVelocity-v1",
+    "SafetyAntVelocity-v1",
+    "SafetyHumanoidVelocity-v1",
+    "SafetySwimmerVelocity-v1",
+)
+
+
+class EpisodeCsv:
+    """Writes each finished training episode as a CSV row at once (a killed run keeps its rows)."""
+
+    def __init__(self, path: str) -> None:
+        self._file = open(path, "w", newline="", encoding="utf-8")  # noqa: SIM115 (closed in close)
+        self._csv = csv.writer(self._file)
+        self._csv.writerow(["episode", "total_steps", "return", "length", "cost"])
+        self.episodes = 0
+        self.steps = 0
+
+    def step(self, num_envs: int) -> None:
+        self.steps += num_envs
+
+    def episode(self, ret: float, length: int, cost: float) -> None:
+        self._csv.writerow([self.episodes, self.steps, repr(ret), length, repr(cost)])
+        self._file.flush()
+        self.episodes += 1
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def hook_episodes(recorder: EpisodeCsv) -> None:
+    """Makes OmniSafe's off-policy adapter report each step and finished episode to `recorder`.
+
+    OmniSafe keeps the episode's sums in `_ep_ret`/`_ep_cost`/`_ep_len` (raw values, before
+    normalisation) and passes them to `_log_metrics` when the episode ends, before resetting them;
+    `_log_value` runs once per vector step. Both are wrapped, not replaced, so OmniSafe's own
+    logging is unchanged. Only training episodes pass here: evaluation uses `eval_policy`.
+    """
+    from omnisafe.adapter.offpolicy_adapter import OffPolicyAdapter
+
+    log_value, log_metrics = OffPolicyAdapter._log_value, OffPolicyAdapter._log_metrics
+
+    def _log_value(self, reward, cost, info):  # noqa: ANN001 (OmniSafe's signature)
+        log_value(self, reward=reward, cost=cost, info=info)
+        recorder.step(self._env.num_envs)
+
+    def _log_metrics(self, logger, idx):  # noqa: ANN001
+        recorder.episode(float(self._ep_ret[idx]), int(self._ep_len[idx]), float(self._ep_cost[idx]))
+        log_metrics(self, logger, idx)
+
+    OffPolicyAdapter._log_value = _log_value
+    OffPolicyAdapter._log_metrics = _log_metrics
+
+
+def versions() -> dict[str, str]:
+    out = {"python": sys.version.split()[0]}
+    for name in ("omnisafe", "safety-gymnasium", "torch", "mujoco", "gymnasium", "numpy"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", required=True, choices=VELOCITY_TASKS, help="Safety-Gymnasium task id")
+    parser.add_argument("--seed", type=int, required=True)
+    parser.add_argument("--steps", type=int, required=True, help="environment steps of training")
+    parser.add_argument("--out", required=True, help="output folder (created; must not hold episodes.csv)")
+    parser.add_argument("--cost-limit", type=float, default=25.0, help="per-episode cost limit (default 25)")
+    parser.add_argument("--steps-per-epoch", type=int, default=2000, help="OmniSafe's default: 2000")
+    parser.add_argument(
+        "--start-learning-steps", type=int, default=None, help="random steps first (OmniSafe's default: 10000)"
+    )
+    parser.add_argument("--threads", type=int, default=1, help="torch threads (default 1: one core a run)")
+    args = parser.parse_args()
+
+    if args.steps <= 0 or args.steps % args.steps_per_epoch:
+        parser.error(f"--steps {args.steps}: must be a positive multiple of --steps-per-epoch {args.steps_per_epoch}")
+    if args.cost_limit <= 0:
+        parser.error(f"--cost-limit {args.cost_limit}: must be positive")
+    out = os.path.abspath(args.out)
+    os.makedirs(out, exist_ok=True)
+    episodes_path = os.path.join(out, "episodes.csv")
+    if os.path.exists(episodes_path):
+        print(f"omnisafe_saclag: {episodes_path} exists; choose another --out", file=sys.stderr)
+        return 2
+
+    import omnisafe  # after the argument checks: importing torch takes seconds
+
+    with open(os.path.join(out, "run.json"), "w", encoding="utf-8") as f:
+        json.dump({"algo": "SACLag", **vars(args), "versions": versions()}, f, indent=2)
+        f.write("\n")
+
+    recorder = EpisodeCsv(episodes_path)
+    hook_episodes(recorder)
+    algo_cfgs: dict[str, int] = {"steps_per_epoch": args.steps_per_epoch}
+    if args.start_learning_steps is not None:
+        algo_cfgs["start_learning_steps"] = args.start_learning_steps
+    custom_cfgs = {
+        "seed": args.seed,
+        "train_cfgs": {"total_steps": args.steps, "device": "cpu", "torch_threads": args.threads},
+        "algo_cfgs": algo_cfgs,
+        "lagrange_cfgs": {"cost_limit": args.cost_limit},
+        "logger_cfgs": {"log_dir": out, "use_wandb": False},
+    }
+    try:
+        agent = omnisafe.Agent("SACLag", args.env, custom_cfgs=custom_cfgs)
+        ep_ret, ep_cost, ep_len = agent.learn()
+    finally:
+        recorder.close()
+    print(
+        f"omnisafe_saclag: {args.env} seed {args.seed}: {recorder.episodes} training episodes, "
+        f"{recorder.steps} steps; last epoch's mean return {float(ep_ret):.1f}, cost {float(ep_cost):.1f}, "
+        f"length {float(ep_len):.0f} -> {episodes_path}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
