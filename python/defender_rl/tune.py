@@ -96,10 +96,13 @@ def _die_with_parent() -> None:
 def _progress(run_dir: Path) -> dict[str, Any]:
     metrics: dict[str, Any] = {"total_steps": 0, "episodes": 0, "crash_pct": 0.0, "filtered_pct": 0.0}
     try:
-        rows = (run_dir / "metrics.csv").read_text().splitlines()[1:]
+        lines = (run_dir / "metrics.csv").read_text().splitlines()
     except OSError:
-        rows = []
-    rows = [r.split(",") for r in rows if r.count(",") == 5]
+        lines = []
+    # Whole rows only (a row being appended may be cut): as many fields as the header, which
+    # grows at its end when a column is added (cost).
+    width = lines[0].count(",") if lines else 0
+    rows = [r.split(",") for r in lines[1:] if r.count(",") == width]
     if rows:
         n = len(rows)
         metrics.update(

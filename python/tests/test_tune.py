@@ -32,7 +32,9 @@ def binary() -> pathlib.Path:
 
 
 def metrics(run: pathlib.Path) -> list[str]:
-    return [line.rsplit(",", 1)[0] for line in (run / "metrics.csv").read_text().splitlines()]
+    lines = (run / "metrics.csv").read_text().splitlines()
+    # Without wall_seconds, the sixth column (later columns, like cost, follow it).
+    return [",".join(f for i, f in enumerate(line.split(",")) if i != 5) for line in lines]
 
 
 def actor_tensors(run: pathlib.Path) -> bytes:

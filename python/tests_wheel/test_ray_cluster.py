@@ -103,8 +103,9 @@ def has_ancestor(pid: int, ancestor: int) -> bool:
 
 
 def metrics(run: pathlib.Path) -> list[str]:
-    """metrics.csv without its last column (wall time)."""
-    return [line.rsplit(",", 1)[0] for line in (run / "metrics.csv").read_text().splitlines()]
+    """metrics.csv without its wall-time column (the sixth; later columns, like cost, follow it)."""
+    lines = (run / "metrics.csv").read_text().splitlines()
+    return [",".join(f for i, f in enumerate(line.split(",")) if i != 5) for line in lines]
 
 
 def tune_has_checkpoint(sweep: pathlib.Path, defender: bool) -> bool:

@@ -28,7 +28,12 @@ const RUNS: [&str; 2] =
 
 fn metrics(dir: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect()
+    // wall_seconds is the sixth column (columns added later, like cost, come after it).
+    text.lines()
+        .map(|l| {
+            l.split(',').enumerate().filter(|(i, _)| *i != 5).map(|(_, f)| f).collect::<Vec<_>>().join(",")
+        })
+        .collect()
 }
 
 fn actor_tensors(dir: &Path) -> Vec<u8> {
