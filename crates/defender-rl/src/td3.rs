@@ -229,6 +229,8 @@ impl Td3 {
             actor_loss,
             alpha: None,
             alpha_loss: None,
+            cost_critic_loss: None,
+            lagrange_multiplier: None,
         })
     }
 }
