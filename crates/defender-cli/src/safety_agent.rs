@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail};
 use defender_config::run_config::RunConfig;
+use defender_rl::safety::lagrangian::LagrangianSac;
 use defender_rl::safety::penalty::Penalized;
 use defender_rl::{Agent, AlgoConfig, SafetyConfig};
 
@@ -13,6 +14,15 @@ pub fn build_agent(
     act_dim: usize,
     seed: u64,
 ) -> Result<Box<dyn Agent>> {
+    if let Some(SafetyConfig::Lagrangian(lagrangian)) = &config.safety {
+        let AlgoConfig::Sac(sac) = algo else {
+            bail!(
+                "[safety] method = \"lagrangian\" is Lagrangian SAC: it needs algo = \"sac\", not \"{}\"",
+                algo.algo()
+            );
+        };
+        return Ok(Box::new(LagrangianSac::new(sac.clone(), lagrangian.clone(), obs_dim, act_dim, seed)?));
+    }
     let agent = algo.build(obs_dim, act_dim, seed)?;
     Ok(match &config.safety {
         None => agent,

@@ -27,7 +27,10 @@ pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,ep
 /// report).
 pub const UPDATES_FILE: &str = "updates.csv";
 /// The header of `updates.csv`.
-pub const UPDATES_HEADER: &str = "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss";
+/// The last two columns, a Lagrangian agent's cost critic loss and multiplier, came later: a file
+/// of an older run has rows of the first seven only (read as empty).
+pub const UPDATES_HEADER: &str =
+    "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss,qc_loss,lagrange_multiplier";
 /// DEFENDER's dynamics model every 1000 steps, its prediction error on fresh transitions and its
 /// training loss (DEFENDER runs only; written by `defender train`, not read by the report).
 pub const DYNAMICS_FILE: &str = "dynamics.csv";
