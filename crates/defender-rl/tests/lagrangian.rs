@@ -77,7 +77,7 @@ impl Hooks for Recorder {
         let bits = |x: Option<f32>| x.expect("a Lagrangian statistic").to_bits();
         self.updates.push((
             s.n_updates,
-            s.actor_loss.unwrap().to_bits(),
+            s.actor_loss.expect("an actor loss").to_bits(),
             bits(s.cost_critic_loss),
             bits(s.lagrange_multiplier),
         ));

@@ -178,8 +178,8 @@ mod tests {
         let target = c.critic.target.forward(rows(&next_in, 8, 5));
         let next_q: Vec<f32> = (0..8).map(|i| *target.get(i, 0)).collect();
         c.step(&batch, &critic_in, &next_in).unwrap();
-        for i in 0..8 {
-            let expected = if i % 4 == 0 { batch.costs[i] } else { batch.costs[i] + 0.99 * next_q[i] };
+        for (i, (&q, &cost)) in next_q.iter().zip(&batch.costs).enumerate() {
+            let expected = if i % 4 == 0 { cost } else { cost + 0.99 * q };
             assert_eq!(c.y[i], expected, "row {i}");
         }
     }
