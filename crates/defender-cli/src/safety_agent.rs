@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail};
 use defender_config::run_config::RunConfig;
+use defender_rl::safety::lagrangian::LagrangianSac;
 use defender_rl::safety::penalty::Penalized;
 use defender_rl::{Agent, AlgoConfig, SafetyConfig};
 
@@ -16,10 +17,20 @@ pub fn build_agent(
     if let Some(SafetyConfig::Recovery(recovery)) = &config.safety {
         return crate::recovery_agent::build(recovery, algo, obs_dim, act_dim, seed);
     }
+    if let Some(SafetyConfig::Lagrangian(lagrangian)) = &config.safety {
+        let AlgoConfig::Sac(sac) = algo else {
+            bail!(
+                "[safety] method = \"lagrangian\" is Lagrangian SAC: it needs algo = \"sac\", not \"{}\"",
+                algo.algo()
+            );
+        };
+        return Ok(Box::new(LagrangianSac::new(sac.clone(), lagrangian.clone(), obs_dim, act_dim, seed)?));
+    }
     let agent = algo.build(obs_dim, act_dim, seed)?;
     Ok(match &config.safety {
         None => agent,
         Some(SafetyConfig::Penalty { penalty }) => Box::new(Penalized::new(agent, *penalty)),
-        Some(other) => bail!("[safety] method = \"{}\" is not available in this build", other.method()),
+        // Both are built above.
+        Some(SafetyConfig::Lagrangian(_) | SafetyConfig::Recovery(_)) => agent,
     })
 }

@@ -1,7 +1,8 @@
 //! `updates.csv`: the learner's own numbers as training goes (SB3's logger, CleanRL's
 //! TensorBoard scalars), so a user can see why a run diverged: the critics' loss and mean Q, the
-//! actor's loss, SAC's entropy coefficient and its loss, averaged over every `EVERY` environment
-//! steps, and for Recovery RL how many steps its recovery policy has acted so far; and `dynamics.csv`: DEFENDER's dynamics model, its prediction error on fresh
+//! actor's loss, SAC's entropy coefficient and its loss, for Recovery RL how many steps its
+//! recovery policy has acted so far, and a Lagrangian agent's cost critic loss and multiplier,
+//! averaged over every `EVERY` environment steps; and `dynamics.csv`: DEFENDER's dynamics model, its prediction error on fresh
 //! transitions and its training loss, every `EVERY` environment steps.
 //!
 //! The files' names and headers are the run directory's (`defender_report::UPDATES_FILE`,
@@ -26,6 +27,11 @@ pub struct UpdateLog {
     /// Recovery RL's count, the last one reported (absent from checkpoints of older runs).
     #[serde(default)]
     recovery_steps: Option<u64>,
+    /// Absent from a checkpoint of a run older than these fields: a Lagrangian agent is newer.
+    #[serde(default)]
+    qc_loss: (f64, u32),
+    #[serde(default)]
+    lagrange_multiplier: Option<f32>,
 }
 
 fn mean((sum, n): (f64, u32)) -> Option<f64> {
@@ -71,13 +77,17 @@ pub struct UpdateRow {
     /// Recovery RL: environment steps so far in which the recovery policy acted (none for other
     /// runs, and in rows written before the column existed).
     pub recovery_steps: Option<u64>,
+    /// A Lagrangian agent's cost critic loss (none otherwise, and in an older run's rows).
+    pub qc_loss: Option<f64>,
+    /// Its Lagrange multiplier at the window's last update (none otherwise).
+    pub lagrange_multiplier: Option<f32>,
 }
 
 impl UpdateRow {
     /// The CSV row (`defender_report::UPDATES_HEADER`).
     pub fn to_csv(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             self.total_steps,
             self.n_updates,
             self.qf_loss,
@@ -85,16 +95,19 @@ impl UpdateRow {
             field(self.actor_loss),
             field(self.ent_coef),
             field(self.ent_coef_loss),
-            field(self.recovery_steps)
+            field(self.recovery_steps),
+            field(self.qc_loss),
+            field(self.lagrange_multiplier)
         )
     }
 
-    /// Parses a CSV row, of this version or of one before `recovery_steps` (7 fields).
+    /// Parses a CSV row, of ten fields or of an older run's seven.
     ///
     /// # Errors
     /// A row that is not one of `updates.csv`, with what is wrong.
     pub fn parse(line: &str) -> Result<Self, String> {
-        let f = parse_fields(line, 8).or_else(|_| parse_fields(line, 7))?;
+        let f = if line.split(',').count() == 7 { parse_fields(line, 7)? } else { parse_fields(line, 10)? };
+        let late = |k: usize| f.get(k).copied().unwrap_or("");
         Ok(Self {
             total_steps: required(f[0])?,
             n_updates: required(f[1])?,
@@ -103,7 +116,9 @@ impl UpdateRow {
             actor_loss: parse_field(f[4])?,
             ent_coef: parse_field(f[5])?,
             ent_coef_loss: parse_field(f[6])?,
-            recovery_steps: f.get(7).map_or(Ok(None), |s| parse_field(s))?,
+            recovery_steps: parse_field(late(7))?,
+            qc_loss: parse_field(late(8))?,
+            lagrange_multiplier: parse_field(late(9))?,
         })
     }
 }
@@ -175,6 +190,12 @@ impl UpdateLog {
         if let Some(l) = stats.alpha_loss {
             self.alpha_loss = (self.alpha_loss.0 + f64::from(l), self.alpha_loss.1 + 1);
         }
+        if let Some(l) = stats.cost_critic_loss {
+            self.qc_loss = (self.qc_loss.0 + f64::from(l), self.qc_loss.1 + 1);
+        }
+        if stats.lagrange_multiplier.is_some() {
+            self.lagrange_multiplier = stats.lagrange_multiplier;
+        }
         self.n_updates = stats.n_updates;
         self.recovery_steps = stats.recovery_steps.or(self.recovery_steps);
         if !total_steps.is_multiple_of(EVERY) {
@@ -190,6 +211,8 @@ impl UpdateLog {
             ent_coef: self.alpha,
             ent_coef_loss: mean(self.alpha_loss),
             recovery_steps: self.recovery_steps,
+            qc_loss: mean(self.qc_loss),
+            lagrange_multiplier: self.lagrange_multiplier,
         };
         *self = Self::default();
         Some(row)
@@ -232,8 +255,42 @@ mod tests {
         assert_eq!(UpdateRow::parse(&csv), Ok(row));
         let old = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01").unwrap();
         assert_eq!((old.recovery_steps, old.ent_coef_loss), (None, Some(0.01)));
-        let plain = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01,").unwrap();
+        let plain = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01,,,").unwrap();
         assert_eq!(plain, old, "a run without Recovery RL leaves the column empty");
+    }
+
+    #[test]
+    fn update_rows_carry_the_lagrangian_columns_and_older_rows_still_read() {
+        let mut log = UpdateLog::default();
+        let stats = |qc: f32, lambda: f32| defender_rl::UpdateStats {
+            n_updates: 1,
+            actor_loss: Some(1.0),
+            alpha: Some(0.2),
+            cost_critic_loss: Some(qc),
+            lagrange_multiplier: Some(lambda),
+            ..Default::default()
+        };
+        assert_eq!(log.add(999, &stats(1.0, 0.5)), None);
+        let row = log.add(1000, &stats(3.0, 0.75)).unwrap();
+        assert_eq!((row.qc_loss, row.lagrange_multiplier), (Some(2.0), Some(0.75)));
+        let csv = row.to_csv();
+        assert_eq!(csv.split(',').count(), defender_report::UPDATES_HEADER.split(',').count());
+        assert_eq!(UpdateRow::parse(&csv), Ok(row));
+        let old = UpdateRow::parse("1000,5,0.5,1.5,-2,0.2,").unwrap();
+        assert_eq!((old.n_updates, old.qc_loss, old.lagrange_multiplier), (5, None, None));
+        assert!(csv.ends_with(",,2,0.75"), "{csv}");
+        // A plain agent's row leaves them empty.
+        let mut log = UpdateLog::default();
+        let plain = defender_rl::UpdateStats { n_updates: 1, ..Default::default() };
+        assert!(log.add(1000, &plain).unwrap().to_csv().ends_with(",,,"));
+        assert!(UpdateRow::parse("1,2,3").is_err());
+    }
+
+    #[test]
+    fn a_checkpointed_accumulator_of_an_older_run_reads() {
+        let old = r#"{"n":3,"qf_loss":1.0,"qf1_mean":2.0,"actor":[1.0,1],"alpha":0.5,"alpha_loss":[0.0,0],"n_updates":7}"#;
+        let log: UpdateLog = serde_json::from_str(old).unwrap();
+        assert_eq!((log.n, log.qc_loss, log.lagrange_multiplier), (3, (0.0, 0), None));
     }
 
     #[test]

@@ -175,6 +175,11 @@ impl RunConfig {
         if let Some(safety) = &self.safety {
             // Every task defender runs today has the crash cost (1 per crashed episode).
             safety.validate_for_crash_cost().context("[safety]")?;
+            if let (defender_rl::SafetyConfig::Lagrangian(_), Algo::Td3) = (safety, self.algo) {
+                bail!(
+                    "[safety] method = \"lagrangian\" is Lagrangian SAC: it needs algo = \"sac\", not \"td3\""
+                );
+            }
         }
         Ok(())
     }

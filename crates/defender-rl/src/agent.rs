@@ -6,7 +6,8 @@ use crate::error::RlError;
 use crate::replay::Transition;
 
 /// What one training phase reported (the last gradient step's values), under CleanRL's metric
-/// names: `losses/qf_loss`, `losses/actor_loss`, `losses/alpha`, `losses/alpha_loss`.
+/// names: `losses/qf_loss`, `losses/actor_loss`, `losses/alpha`, `losses/alpha_loss`, and a
+/// Lagrangian agent's `losses/qc_loss` and `train/lagrange_multiplier`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UpdateStats {
     /// Gradient steps taken so far (SB3's `n_updates`).
@@ -24,6 +25,10 @@ pub struct UpdateStats {
     /// Environment steps so far in which Recovery RL's recovery policy acted instead of the
     /// task policy (`None` for the other agents).
     pub recovery_steps: Option<u64>,
+    /// The cost critic's loss (Lagrangian SAC: `losses/qc_loss`).
+    pub cost_critic_loss: Option<f32>,
+    /// The Lagrange multiplier used (Lagrangian SAC: `train/lagrange_multiplier`).
+    pub lagrange_multiplier: Option<f32>,
 }
 
 /// An off-policy agent as the trainer drives it: pick an action, store the transition, learn.

@@ -32,6 +32,38 @@ pub(crate) struct Critic {
 }
 
 impl Critic {
+    /// A fresh critic for `input` values per row (PyTorch's initialisation, drawn from `init`);
+    /// the target starts as a copy.
+    pub(crate) fn new(
+        input: usize,
+        net_arch: &[usize],
+        adam: AdamConfig,
+        batch_size: usize,
+        init: &mut ChaCha8Rng,
+    ) -> Result<Self, RlError> {
+        Self::with_output(input, net_arch, adam, batch_size, init, Activation::Identity)
+    }
+
+    /// As [`Critic::new`] with `output` on the critic's output.
+    pub(crate) fn with_output(
+        input: usize,
+        net_arch: &[usize],
+        adam: AdamConfig,
+        batch_size: usize,
+        init: &mut ChaCha8Rng,
+        output: Activation,
+    ) -> Result<Self, RlError> {
+        let net = new_mlp(&widths(input, net_arch, 1), output, init)?;
+        Ok(Self {
+            target: net.clone(),
+            opt: Adam::new(&net, adam),
+            net,
+            q: vec![0.0; batch_size],
+            grad: vec![0.0; batch_size],
+            dinput: vec![0.0; batch_size * input],
+        })
+    }
+
     fn width(&self) -> usize {
         self.net.in_dim()
     }
@@ -72,8 +104,20 @@ impl Critic {
     }
 
     /// `Q_target <- tau Q + (1 - tau) Q_target`.
-    fn polyak(&mut self, tau: f32) {
+    pub(crate) fn polyak(&mut self, tau: f32) {
         self.target.polyak_update(&self.net, tau);
+    }
+
+    /// Saves the critic as `NAME` (with its optimiser) and `NAME_target`.
+    pub(crate) fn save(&self, dir: &Path, name: &str) -> Result<(), RlError> {
+        save_net(dir, name, &self.net, Some(&self.opt))?;
+        save_net(dir, &format!("{name}_target"), &self.target, None)
+    }
+
+    /// Loads what [`Critic::save`] wrote.
+    pub(crate) fn load(&mut self, dir: &Path, name: &str) -> Result<(), RlError> {
+        load_net(dir, name, &mut self.net, Some(&mut self.opt))?;
+        load_net(dir, &format!("{name}_target"), &mut self.target, None)
     }
 }
 
@@ -112,19 +156,8 @@ impl TwinCritics {
         init: &mut ChaCha8Rng,
         output: Activation,
     ) -> Result<Self, RlError> {
-        let mut make = || -> Result<Critic, RlError> {
-            let net = new_mlp(&widths(obs_dim + act_dim, net_arch, 1), output, init)?;
-            Ok(Critic {
-                target: net.clone(),
-                opt: Adam::new(&net, adam),
-                net,
-                q: vec![0.0; batch_size],
-                grad: vec![0.0; batch_size],
-                dinput: vec![0.0; batch_size * (obs_dim + act_dim)],
-            })
-        };
-        let first = make()?;
-        let second = make()?;
+        let first = Critic::with_output(obs_dim + act_dim, net_arch, adam, batch_size, init, output)?;
+        let second = Critic::with_output(obs_dim + act_dim, net_arch, adam, batch_size, init, output)?;
         let sequential = Parallelism::Sequential;
         let mut twins = Self { critics: [first, second], parallelism: sequential, each: sequential };
         twins.set_parallelism(Parallelism::default());
@@ -174,8 +207,7 @@ impl TwinCritics {
     /// Saves the critics as `q1`, `q2` (with their optimisers), `q1_target`, `q2_target`.
     pub(crate) fn save(&self, dir: &Path) -> Result<(), RlError> {
         for (k, c) in self.critics.iter().enumerate() {
-            save_net(dir, &format!("q{}", k + 1), &c.net, Some(&c.opt))?;
-            save_net(dir, &format!("q{}_target", k + 1), &c.target, None)?;
+            c.save(dir, &format!("q{}", k + 1))?;
         }
         Ok(())
     }
@@ -183,8 +215,7 @@ impl TwinCritics {
     /// Loads what [`TwinCritics::save`] wrote.
     pub(crate) fn load(&mut self, dir: &Path) -> Result<(), RlError> {
         for (k, c) in self.critics.iter_mut().enumerate() {
-            load_net(dir, &format!("q{}", k + 1), &mut c.net, Some(&mut c.opt))?;
-            load_net(dir, &format!("q{}_target", k + 1), &mut c.target, None)?;
+            c.load(dir, &format!("q{}", k + 1))?;
         }
         Ok(())
     }

@@ -108,6 +108,24 @@ impl Workspace {
     }
 }
 
+/// A cost the actor minimises beside the reward, with the critic that estimates it, trained on the
+/// batch of SAC's own step (Lagrangian SAC, `safety/lagrangian.rs`). With it the actor's loss is
+/// `mean(alpha logp - min(Q1, Q2) + lambda Q_c) / (1 + lambda)`, `lambda` constant within the
+/// step, plus the behaviour-cloning term (a regulariser of its own weight, not rescaled).
+pub(crate) trait CostTerm {
+    /// One step of the cost critic on this step's batch: `critic_in` holds its `[s | a]` rows,
+    /// `next_in` the `[s' | a']` rows with the next actions SAC sampled for its reward target.
+    ///
+    /// # Errors
+    /// [`RlError::Diverged`] if the cost critic's loss is not finite.
+    fn critic_step(&mut self, batch: &Batch, critic_in: &[f32], next_in: &[f32]) -> Result<(), RlError>;
+    /// The multiplier `lambda >= 0` of this step.
+    fn multiplier(&self) -> f32;
+    /// Adds `weight * dQ_c/da~` to `dact` for the `[s | a~]` rows `pi_in` (through the updated
+    /// cost critic) and returns `weight * sum_i Q_c(s_i, a~_i)`.
+    fn actor_term(&mut self, pi_in: &[f32], weight: f32, dact: &mut [f32]) -> f32;
+}
+
 /// What `state.json` holds besides the networks and the buffer.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct SacState {
@@ -223,6 +241,21 @@ impl Sac {
         }
     }
 
+    /// [`Agent::update`], with `cost` in every gradient step.
+    pub(crate) fn update_with(
+        &mut self,
+        mut cost: Option<&mut (dyn CostTerm + '_)>,
+    ) -> Result<Option<UpdateStats>, RlError> {
+        let buffer_len = self.experience.buffer.len();
+        let schedule = self.schedule();
+        schedule.run(self.experience.num_timesteps, buffer_len, || self.gradient_step(cost.as_deref_mut()))
+    }
+
+    /// Whether the schedule has not started learning yet (`num_timesteps <= learning_starts`).
+    pub(crate) fn before_learning_starts(&self) -> bool {
+        self.experience.num_timesteps <= self.config.learning_starts
+    }
+
     /// The policy network (`obs -> [mean | log_std]`).
     pub fn actor(&self) -> &Mlp {
         &self.actor
@@ -261,21 +294,25 @@ impl Sac {
     /// The actor's loss `mean(alpha logp - min(Q1, Q2)(s, a~))` through the (updated) critics,
     /// for the actions sampled by the last [`Sac::sample_policy`] of the current states; leaves
     /// its gradient in the actor (whose last forward pass must be that of the current states).
-    fn actor_backward(&mut self, alpha: f32) -> f32 {
+    /// With a `cost`, the Lagrangian loss of [`CostTerm`]: every term of SAC's loss is weighed by
+    /// `k = 1 / (1 + lambda)` (`k = 1` exactly without, so plain SAC's numbers are unchanged).
+    fn actor_backward(&mut self, alpha: f32, cost: Option<&mut (dyn CostTerm + '_)>) -> f32 {
         let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
         let ws = &mut self.ws;
         concat_rows(&mut ws.pi_in, &ws.batch.obs, &ws.pi_act, b, o, a);
         let pi_in = &ws.pi_in;
         self.critics.each(|_, c| c.forward(pi_in, b));
         let (q1, q2) = (&self.critics[0].q, &self.critics[1].q);
+        let lambda = cost.as_ref().map_or(0.0, |c| c.multiplier());
+        let k = 1.0 / (1.0 + lambda);
         let mut actor_loss = 0.0f32;
         for i in 0..b {
             // The min's gradient goes to the smaller critic (the first on ties, as torch.min).
             let first = q1[i] <= q2[i];
             let min_q = if first { q1[i] } else { q2[i] };
-            actor_loss += (alpha * ws.logp[i] - min_q) / b as f32;
-            ws.grad1[i] = if first { -1.0 / b as f32 } else { 0.0 };
-            ws.grad2[i] = if first { 0.0 } else { -1.0 / b as f32 };
+            actor_loss += k * (alpha * ws.logp[i] - min_q) / b as f32;
+            ws.grad1[i] = if first { -k / b as f32 } else { 0.0 };
+            ws.grad2[i] = if first { 0.0 } else { -k / b as f32 };
         }
         let grads = [&ws.grad1, &ws.grad2];
         self.critics.each(|k, c| c.backward_input(grads[k], b));
@@ -290,12 +327,15 @@ impl Sac {
                 ws.dact[i * a + j] += d2[i * (o + a) + o + j];
             }
         }
+        if let Some(cost) = cost {
+            actor_loss += cost.actor_term(&ws.pi_in, k * lambda / b as f32, &mut ws.dact);
+        }
         actor_loss += Self::behaviour_cloning(ws, &self.config, b, a);
         // Back through a~ = tanh(u), u = mean + std eps, and log pi:
         //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
         //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
         //   once u is reparameterised), zero where the clamp cut log_std.
-        let scale = alpha / b as f32;
+        let scale = k * alpha / b as f32;
         for i in 0..b {
             for j in 0..a {
                 let k = i * a + j;
@@ -341,8 +381,9 @@ impl Sac {
         loss
     }
 
-    /// One gradient step on a fresh batch.
-    fn gradient_step(&mut self) -> Result<UpdateStats, RlError> {
+    /// One gradient step on a fresh batch, with the cost critic's step and the actor's cost term
+    /// if `cost` is given.
+    fn gradient_step(&mut self, mut cost: Option<&mut (dyn CostTerm + '_)>) -> Result<UpdateStats, RlError> {
         let (b, o, a) = (self.config.batch_size, self.obs_dim, self.act_dim);
         let gamma = self.config.gamma as f32;
         let ws = &mut self.ws;
@@ -395,7 +436,12 @@ impl Sac {
             }
         }
 
-        let actor_loss = self.actor_backward(alpha);
+        // The cost critic after the reward critics, before the actor (OmniSafe's order).
+        if let Some(cost) = cost.as_deref_mut() {
+            cost.critic_step(&ws.batch, &ws.critic_in, &ws.next_in)?;
+        }
+
+        let actor_loss = self.actor_backward(alpha, cost);
         self.actor_opt.step(&mut self.actor);
 
         self.n_updates += 1;
@@ -414,6 +460,8 @@ impl Sac {
             alpha: Some(alpha),
             alpha_loss,
             recovery_steps: None,
+            cost_critic_loss: None,
+            lagrange_multiplier: None,
         })
     }
 }
@@ -466,8 +514,7 @@ impl Agent for Sac {
     }
 
     fn update(&mut self) -> Result<Option<UpdateStats>, RlError> {
-        let buffer_len = self.experience.buffer.len();
-        self.schedule().run(self.experience.num_timesteps, buffer_len, || self.gradient_step())
+        self.update_with(None)
     }
 
     fn save(&self, dir: &Path) -> Result<(), RlError> {
@@ -510,170 +557,8 @@ impl Agent for Sac {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A small agent with a filled buffer and a sampled batch.
-    fn small(alpha: f32) -> Sac {
-        small_with(SacConfig { ent_coef: EntCoef::Fixed(alpha), ..SacConfig::default() })
-    }
-
-    /// As [`small`] with `config`'s algorithm settings; every third transition is a safe
-    /// demonstration's.
-    fn small_with(config: SacConfig) -> Sac {
-        let config = SacConfig {
-            net_arch: vec![16, 16],
-            batch_size: 8,
-            buffer_size: 100,
-            learning_starts: 0,
-            ..config
-        };
-        let mut sac = Sac::new(config, 3, 2, 5).unwrap();
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        for k in 0..40 {
-            let obs: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let next: Vec<f64> = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let act: Vec<f32> = (0..2).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let t = Transition {
-                obs: &obs,
-                action: &act,
-                reward: rng.random_range(-1.0..1.0),
-                cost: 0.0,
-                next_obs: &next,
-                terminated: false,
-                truncated: false,
-            };
-            if k % 3 == 0 {
-                sac.store_demonstration(&t, true).unwrap();
-            } else {
-                sac.observe(&t).unwrap();
-            }
-        }
-        sac.experience.buffer.sample_into(&mut sac.rng, &mut sac.ws.batch).unwrap();
-        sac
-    }
-
-    /// The actor loss for the agent's current parameters, with the noise drawn from `rng`.
-    fn loss(sac: &mut Sac, rng: &ChaCha8Rng, alpha: f32) -> f32 {
-        let (b, o, a) = (sac.config.batch_size, sac.obs_dim, sac.act_dim);
-        sac.rng = rng.clone();
-        copy_out(sac.actor.forward(rows(&sac.ws.batch.obs, b, o)), &mut sac.ws.actor_out);
-        Sac::sample_policy(&mut sac.ws, &mut sac.rng, b, a, false);
-        sac.actor_backward(alpha)
-    }
-
-    #[test]
-    fn actor_gradient_matches_finite_differences() {
-        check_actor_gradient(small(0.3), 0.3);
-    }
-
-    #[test]
-    fn the_behaviour_cloning_gradient_matches_finite_differences_in_both_forms() {
-        for bc_form in [BcForm::PerRow, BcForm::Authors] {
-            let config = SacConfig {
-                ent_coef: EntCoef::Fixed(0.3),
-                demos_in_replay: true,
-                bc_weight: 2.0,
-                bc_form,
-                ..SacConfig::default()
-            };
-            let sac = small_with(config);
-            let share = sac.ws.batch.bc.iter().sum::<f32>();
-            assert!(share > 0.0 && share < 8.0, "the batch must mix demonstration rows and others");
-            check_actor_gradient(sac, 0.3);
-        }
-    }
-
-    #[test]
-    fn the_two_forms_weigh_the_batch_as_documented() {
-        let mut ws = Workspace::new(2, 1, 1);
-        ws.pi_act.copy_from_slice(&[0.5, 0.0]);
-        ws.batch.actions.copy_from_slice(&[0.0, 1.0]);
-        ws.batch.bc.copy_from_slice(&[1.0, 0.0]);
-        let mut c = SacConfig { bc_weight: 1.0, demos_in_replay: true, ..SacConfig::default() };
-        // Per row: only row 0, (0.5^2) / (2 rows * 1 dim).
-        assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.125).abs() < 1e-7);
-        c.bc_form = BcForm::Authors;
-        ws.dact.fill(0.0);
-        // Authors: mean(bc) = 0.5 times the MSE of both rows, (0.25 + 1) / 2.
-        assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.3125).abs() < 1e-7);
-        // d/da~ of row 1: share 0.5 * 2 * (0 - 1) / (2 rows * 1 dim) = -0.5.
-        assert!((ws.dact[1] + 0.5).abs() < 1e-7, "{:?}", ws.dact);
-    }
-
-    /// The actor's analytic gradient against central finite differences of its loss.
-    fn check_actor_gradient(mut sac: Sac, alpha: f32) {
-        let rng = sac.rng.clone();
-        loss(&mut sac, &rng, alpha);
-        let analytic = sac.actor.grads().to_vec();
-        let n = sac.actor.num_params();
-        // Every parameter of the last layer (mean and log_std heads) and a spread of the others.
-        let last = (n - (16 * 4 + 4))..n;
-        let picked: Vec<usize> = (0..n).step_by(7).chain(last).collect();
-        let h = 2e-3f32;
-        let mut worst = 0.0f32;
-        for &k in &picked {
-            let p = sac.actor.params()[k];
-            sac.actor.params_mut()[k] = p + h;
-            let up = loss(&mut sac, &rng, alpha);
-            sac.actor.params_mut()[k] = p - h;
-            let down = loss(&mut sac, &rng, alpha);
-            sac.actor.params_mut()[k] = p;
-            let numeric = (up - down) / (2.0 * h);
-            let err = (numeric - analytic[k]).abs() / (1e-3 + numeric.abs().max(analytic[k].abs()));
-            worst = worst.max(err);
-            assert!(err < 2e-2, "param {k}: analytic {} numeric {numeric}", analytic[k]);
-        }
-        assert!(analytic.iter().any(|g| g.abs() > 1e-4), "all gradients vanished");
-        eprintln!("worst relative error {worst:e} over {} parameters", picked.len());
-    }
-
-    #[test]
-    fn log_prob_includes_the_tanh_correction() {
-        // With mean 0 and log_std 0 (std 1), log pi(a) = log N(u; 0, 1) - log(1 - tanh(u)^2 + 1e-6).
-        let mut ws = Workspace::new(1, 1, 1);
-        ws.actor_out.copy_from_slice(&[0.0, 0.0]);
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let eps: f32 = rng.clone().sample(StandardNormal);
-        Sac::sample_policy(&mut ws, &mut rng, 1, 1, false);
-        let expected = -0.5 * eps * eps
-            - 0.5 * (2.0 * std::f32::consts::PI).ln()
-            - (1.0 - eps.tanh().powi(2) + 1e-6).ln();
-        assert!((ws.logp[0] - expected).abs() < 1e-5, "{} vs {expected}", ws.logp[0]);
-        assert!((ws.pi_act[0] - eps.tanh()).abs() < 1e-7);
-    }
-
-    #[test]
-    fn warm_up_is_uniform_then_the_policy_acts_and_update_waits_for_learning_starts() {
-        let config =
-            SacConfig { learning_starts: 10, batch_size: 4, net_arch: vec![8], ..SacConfig::default() };
-        let mut sac = Sac::new(config, 2, 1, 0).unwrap();
-        let mut act = [0.0f32];
-        for step in 0..12u64 {
-            sac.act(&[0.1, 0.2], false, &mut act).unwrap();
-            assert!((-1.0..=1.0).contains(&act[0]));
-            let obs = [0.1, 0.2];
-            let t = Transition {
-                obs: &obs,
-                action: &act,
-                reward: 1.0,
-                cost: 0.0,
-                next_obs: &obs,
-                terminated: false,
-                truncated: true,
-            };
-            sac.observe(&t).unwrap();
-            // SB3: the first update after step learning_starts + 1.
-            assert_eq!(sac.update().unwrap().is_some(), step + 1 > 10, "step {step}");
-        }
-        let mut d1 = [0.0f32];
-        let mut d2 = [0.0f32];
-        sac.act(&[0.3, 0.4], true, &mut d1).unwrap();
-        sac.act(&[0.3, 0.4], true, &mut d2).unwrap();
-        assert_eq!(d1, d2, "the deterministic action must not depend on the RNG");
-        assert!(sac.act(&[0.3], true, &mut d1).is_err());
-    }
-}
+#[path = "sac_tests.rs"]
+mod tests;
 
 #[path = "sac_sample.rs"]
 mod sample;

@@ -20,7 +20,7 @@ fn targets_are_rewards(config: SacConfig, terminated: bool, truncated: bool) -> 
         };
         sac.observe(&t).unwrap();
     }
-    sac.gradient_step().unwrap();
+    sac.gradient_step(None).unwrap();
     sac.ws.target.iter().zip(&sac.ws.batch.rewards).all(|(y, r)| y == r)
 }
 

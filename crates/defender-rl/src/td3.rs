@@ -230,6 +230,8 @@ impl Td3 {
             alpha: None,
             alpha_loss: None,
             recovery_steps: None,
+            cost_critic_loss: None,
+            lagrange_multiplier: None,
         })
     }
 }

@@ -105,6 +105,8 @@ pub fn update_scalars(row: &UpdateRow) -> Vec<(&'static str, f64)> {
     v.extend(row.ent_coef.map(|a| ("train/ent_coef", f64::from(a))));
     v.extend(row.ent_coef_loss.map(|a| ("train/ent_coef_loss", a)));
     v.extend(row.recovery_steps.map(|n| ("safety/recovery_steps", n as f64)));
+    v.extend(row.qc_loss.map(|a| ("train/qc_loss", a)));
+    v.extend(row.lagrange_multiplier.map(|a| ("train/lagrange_multiplier", f64::from(a))));
     v
 }
 

@@ -10,6 +10,9 @@
 //! The episode returns a run records stay the task's own (a penalty changes what the agent
 //! learns from, never what is reported).
 
+pub(crate) mod cost_critic;
+pub mod lagrangian;
+pub mod multiplier;
 pub mod penalty;
 pub mod recovery;
 mod recovery_policy;

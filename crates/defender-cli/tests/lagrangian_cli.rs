@@ -1,0 +1,163 @@
+//! Lagrangian SAC through the binary: `--lagrangian D` trains it and records `[safety]` in
+//! config.toml, its multiplier and cost critic show in updates.csv, a run stopped by SIGTERM resumes to
+//! exactly the run left alone, an experiment's arm selects it, and TD3 is refused naming the key.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const ENV_ID: &str = "InvertedDoublePendulum-v5";
+
+fn command() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
+    c.env("DEFENDER_NN_THREADS", "1");
+    c
+}
+
+fn defender(args: &[&str]) -> Output {
+    command().args(args).output().expect("run defender")
+}
+
+fn text(out: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = defender(args);
+    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
+    text(&out)
+}
+
+fn refused(args: &[&str], expect: &[&str]) {
+    let out = defender(args);
+    let msg = text(&out);
+    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
+    for e in expect {
+        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
+    }
+    assert!(!msg.contains("panicked"), "{msg}");
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn read(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(name)).unwrap()
+}
+
+/// `metrics.csv` without the wall-clock column (the only one that depends on the machine).
+fn metrics(dir: &Path) -> Vec<String> {
+    let text = read(dir, "metrics.csv");
+    let wall = text.lines().next().unwrap().split(',').position(|c| c == "wall_seconds").unwrap();
+    let drop_wall = |l: &str| {
+        let fields: Vec<&str> =
+            l.split(',').enumerate().filter(|(i, _)| *i != wall).map(|(_, f)| f).collect();
+        fields.join(",")
+    };
+    text.lines().map(drop_wall).collect()
+}
+
+/// The final actor's tensor bytes (after safetensors' JSON header, whose key order is not fixed).
+fn actor(dir: &Path) -> Vec<u8> {
+    let bytes = std::fs::read(dir.join("actor.safetensors")).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    bytes[8 + n..].to_vec()
+}
+
+/// A SAC configuration that learns from step 300, so that 2000 steps train the networks and the
+/// multiplier.
+fn config(root: &Path) -> String {
+    let path = root.join("sac.toml");
+    std::fs::write(&path, format!("env = \"{ENV_ID}\"\nalgo = \"sac\"\n[sac]\nlearning_starts = 300\n"))
+        .unwrap();
+    s(&path).to_string()
+}
+
+fn read_or_empty(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(name)).unwrap_or_default()
+}
+
+/// `defender train --lagrangian 0.5` for 2000 steps, an evaluation every 1000.
+fn train_args(config: &str, out: &Path) -> Vec<String> {
+    let args = ["train", "--config", config, "--lagrangian", "0.5", "--steps", "2000", "--eval-freq", "1000"];
+    let more = ["--checkpoint-every", "20", "--seed", "3", "--out", s(out)];
+    args.iter().chain(&more).map(|a| (*a).to_string()).collect()
+}
+
+#[test]
+fn lagrangian_sac_trains_records_its_section_and_resumes_exactly() {
+    let root = tempfile::tempdir().unwrap();
+    let config = config(root.path());
+    let whole = root.path().join("whole");
+    let args = train_args(&config, &whole);
+    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+
+    let saved = read(&whole, "config.toml");
+    assert!(saved.contains("[safety]\nmethod = \"lagrangian\"\ncost_limit = 0.5\n"), "{saved}");
+    assert!(whole.join("checkpoint/agent/lagrangian.json").exists());
+    let updates = read(&whole, "updates.csv");
+    let mut lines = updates.lines();
+    assert!(lines.next().unwrap().ends_with(",qc_loss,lagrange_multiplier"));
+    let lambdas: Vec<f64> = lines.map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
+    // IDP's random policy crashes every episode: J_c = 1 > d = 0.5, the multiplier rises.
+    assert_eq!(lambdas.len(), 2, "{updates}");
+    assert!(lambdas[0] > 0.001 && lambdas[1] > lambdas[0], "{updates}");
+
+    // Stopped by SIGTERM once it has learnt a while, then resumed: the same run.
+    let resumed = root.path().join("resumed");
+    let mut child = command()
+        .args(train_args(&config, &resumed))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !read_or_empty(&resumed, "updates.csv").contains("\n1000,")
+        && start.elapsed() < Duration::from_secs(120)
+    {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let term = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
+    assert!(term.success());
+    assert_eq!(child.wait().unwrap().code(), Some(143), "not stopped by SIGTERM before its end");
+    ok(&["train", "--out", s(&resumed), "--resume"]);
+    assert_eq!(metrics(&resumed), metrics(&whole), "metrics.csv differs");
+    assert_eq!(read(&resumed, "eval.csv"), read(&whole, "eval.csv"));
+    assert_eq!(read(&resumed, "updates.csv"), updates);
+    assert!(actor(&resumed) == actor(&whole), "the final actors differ");
+}
+
+#[test]
+fn lagrangian_with_td3_is_refused_naming_the_key() {
+    let root = tempfile::tempdir().unwrap();
+    let out = root.path().join("run");
+    let args = ["train", "--env", ENV_ID, "--steps", "2000", "--algo", "td3", "--lagrangian", "0.5"];
+    refused(
+        &[&args[..], &["--out", s(&out)]].concat(),
+        &["method = \"lagrangian\"", "algo = \"sac\"", "td3"],
+    );
+    assert!(!out.join("config.toml").exists(), "refused before any work");
+    let args = ["train", "--env", ENV_ID, "--steps", "2000", "--lagrangian", "1.5", "--out", s(&out)];
+    refused(&args, &["cost_limit", "1.5"]);
+}
+
+#[test]
+fn an_experiment_arm_selects_lagrangian_sac() {
+    let root = tempfile::tempdir().unwrap();
+    let experiment = root.path().join("exp.toml");
+    let arms = "[[arms]]\nname = \"lag\"\nrun = { safety = { method = \"lagrangian\", cost_limit = 0.1 } }\n";
+    let grid = "[grid]\nenvs = [\"InvertedDoublePendulum-v5\"]\nalgos = [\"sac\"]\nstrategies = [\"none\"]\nseeds = [0]\n";
+    std::fs::write(&experiment, format!("description = \"t\"\n{grid}[budget]\nsteps = 1000\n{arms}"))
+        .unwrap();
+    let list = ok(&["sweep", s(&experiment), "--out", s(&root.path().join("out")), "--list", "--json"]);
+    assert!(list.contains("lagrangian") && list.contains("cost_limit"), "{list}");
+    let td3 = experiment.with_file_name("td3.toml");
+    std::fs::write(
+        &td3,
+        format!("description = \"t\"\n{}[budget]\nsteps = 1000\n{arms}", grid.replace("sac", "td3")),
+    )
+    .unwrap();
+    refused(&["sweep", s(&td3), "--out", s(&root.path().join("out2")), "--list"], &["lagrangian", "algo"]);
+}
