@@ -21,7 +21,7 @@ pub struct Step {
     pub obs: Vec<f64>,
     /// Reward of the step.
     pub reward: f64,
-    /// Cost of the step, safe RL's constraint signal beside the reward (docs/SPEC.md, "Costs"):
+    /// Cost of the step, safe RL's constraint signal beside the reward (docs/SPEC.md, "12. Costs"):
     /// 0 unless the task defines one. On Hopper, Walker2d and InvertedDoublePendulum a crash step
     /// (the environment terminated the episode) costs 1; a step DEFENDER filtered costs 0, as it
     /// never reached the environment.
