@@ -98,6 +98,7 @@ def test_tensorboard_reads_every_scalar_at_environment_steps(run):
         "defender/dynamics_error", "defender/dynamics_loss", "defender/mean_safe_cost", "defender/mean_unsafe_cost",
         "defender/filtered_step_rate", "defender/r_task", "time/fps",
         "eval/mean_reward", "eval/std_reward", "eval/mean_ep_length",
+        "safety/crashes", "safety/episode_cost",
     }
     assert expected <= tags, expected - tags
     rows = metrics_rows(run)
@@ -106,6 +107,9 @@ def test_tensorboard_reads_every_scalar_at_environment_steps(run):
     assert [e.value for e in returns] == pytest.approx([float(r[2]) for r in rows], rel=1e-6)
     filtered = [e.value for e in acc.Scalars("episode/filtered")]
     assert filtered == [float(r[4] == "filtered") for r in rows]
+    crashes = [e.value for e in acc.Scalars("safety/crashes")]
+    assert crashes[-1] == sum(r[4] == "crashed" for r in rows)
+    assert [e.value for e in acc.Scalars("safety/episode_cost")] == [float(r[6]) for r in rows]
     crash = acc.Scalars("defender/crash_rate")[-1].value
     assert crash == pytest.approx(sum(r[4] == "crashed" for r in rows) / len(rows), rel=1e-6)
     updates = [line.split(",") for line in (run / "updates.csv").read_text().splitlines()[1:]]

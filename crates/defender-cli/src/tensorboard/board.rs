@@ -6,7 +6,8 @@
 //!   `episode/filtered` (1 or 0: the outcome), `rollout/ep_rew_mean` and `rollout/ep_len_mean`
 //!   (over the last 100 episodes, as Stable-Baselines3), `defender/crash_rate` and
 //!   `defender/filter_rate` (cumulative, as `summary.json`), `defender/crash_rate_recent` and
-//!   `defender/filter_rate_recent` (the last 100), as `defender_rl.sb3.DefenderCallback` names them;
+//!   `defender/filter_rate_recent` (the last 100), as `defender_rl.sb3.DefenderCallback` names them,
+//!   and the field's counts: `safety/crashes` (crashed episodes so far) and `safety/episode_cost`;
 //! * every `update_log::EVERY` steps: the `updates.csv` row (`train/critic_loss`, `train/mean_q`,
 //!   `train/actor_loss`, `train/ent_coef`, `train/ent_coef_loss`, `train/n_updates`, as
 //!   Stable-Baselines3 names them; Recovery RL's `safety/recovery_steps`, the steps its recovery
@@ -68,7 +69,7 @@ pub struct Rates {
 
 impl Rates {
     /// Adds an episode; returns its scalars.
-    pub fn add(&mut self, outcome: Outcome, ret: f64, length: u64) -> [(&'static str, f64); 10] {
+    pub fn add(&mut self, outcome: Outcome, ret: f64, length: u64, cost: f64) -> [(&'static str, f64); 12] {
         if self.recent.len() == WINDOW {
             self.recent.pop_front();
         }
@@ -90,6 +91,8 @@ impl Rates {
             ("defender/filter_rate", self.filtered as f64 / total),
             ("defender/crash_rate_recent", count(Outcome::Crashed)),
             ("defender/filter_rate_recent", count(Outcome::Filtered)),
+            ("safety/crashes", self.crashed as f64),
+            ("safety/episode_cost", cost),
         ]
     }
 }
@@ -196,7 +199,7 @@ impl TrainingBoard {
                     cost_meter::restore(shared, window);
                 }
                 for r in episodes {
-                    rates.add(r.outcome(), r.episode_return, r.length);
+                    rates.add(r.outcome(), r.episode_return, r.length, r.cost());
                 }
                 Self { file, rates, costs, clock: (Instant::now(), steps), flushed: Instant::now() }
             }
@@ -259,7 +262,7 @@ impl TrainingBoard {
     /// # Errors
     /// A file that cannot be written.
     pub fn episode(&mut self, r: &EpisodeRecord) -> Result<()> {
-        let values = self.rates.add(r.outcome(), r.episode_return, r.length);
+        let values = self.rates.add(r.outcome(), r.episode_return, r.length, r.cost());
         self.file.scalars(r.total_steps, now(), &values)?;
         if self.flushed.elapsed().as_secs_f64() >= FLUSH_SECONDS {
             self.flush()?;

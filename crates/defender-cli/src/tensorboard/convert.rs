@@ -61,7 +61,7 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<PathBuf> {
     let mut file = EventFile::create(&path, 0.0)?;
     let mut rates = Rates::default();
     for e in &run.episodes {
-        file.scalars(e.total_steps, e.wall_seconds, &rates.add(e.outcome, e.ret, e.length))?;
+        file.scalars(e.total_steps, e.wall_seconds, &rates.add(e.outcome, e.ret, e.length, e.cost))?;
     }
     for u in &updates {
         file.scalars(u.total_steps, clock(u.total_steps), &update_scalars(u))?;
