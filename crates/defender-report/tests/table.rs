@@ -121,7 +121,7 @@ fn missing_bare_runs_leave_time_out_with_a_note() {
     let md = render(&table, Format::Markdown);
     let td3_line = md.lines().find(|l| l.starts_with("| TD3")).unwrap();
     let td3_cells: Vec<&str> = td3_line.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
-    assert_eq!(td3_cells[8..], ["-", "1"], "{md}");
+    assert_eq!(td3_cells[10..], ["-", "1"], "{md}");
     assert!(md.contains("Notes:\n- % Time of Hopper-v5 SAC"), "{md}");
     let csv = render(&table, Format::Csv);
     let td3 = csv.lines().find(|l| l.starts_with("Hopper-v5,td3")).unwrap();
@@ -149,6 +149,8 @@ fn markdown_is_grouped_like_the_paper() {
             "Best episode (paper's Acc Reward)",
             "Last-10 eval",
             "% Crash",
+            "Crashes",
+            "Crashes / 1k env steps",
             "Standing %",
             "% Time",
             "Seeds"
@@ -176,6 +178,8 @@ fn markdown_is_grouped_like_the_paper() {
             "31 ± 0.8 [30, 32]",
             "125 ± 51.0 [62, 188]",
             "50.0 ± 20.4 [25.0, 75.0]",
+            "2 ± 0.8 [1, 3]",
+            "5.00 ± 2.0 [2.50, 7.50]",
             "0 ± 0.0 [0, 0]",
             "100",
             "3"
@@ -191,6 +195,8 @@ fn markdown_is_grouped_like_the_paper() {
             "31 ± 0.8 [30, 32]",
             "75 ± 8.8 [69, 88]",
             "16.7 ± 11.8 [0.0, 25.0]",
+            "1 ± 0.5 [0, 1]",
+            "1.67 ± 1.2 [0.00, 2.51]",
             "0 ± 0.0 [0, 0]",
             "133",
             "3"
@@ -207,13 +213,15 @@ fn markdown_is_grouped_like_the_paper() {
             "41 ± 0.8 [40, 42]",
             "36 ± 4.9 [30, 42]",
             "66.7 ± 18.9 [40.0, 80.0]",
+            "3 ± 0.9 [2, 4]",
+            "6.67 ± 1.9 [4.00, 8.00]",
             "0 ± 0.0 [0, 0]",
             "100",
             "3"
         ]
     );
     assert_eq!(all[5][..4], ["TD3", "MinDemoW5", "MinDemoW10", "10 ± 0.0 [10, 10]"]);
-    assert_eq!(all[5][8..], ["300", "3"]);
+    assert_eq!(all[5][10..], ["300", "3"]);
     assert!(md.contains("### Hopper-v5, 400 steps\n") && md.contains("### Hopper-v5, 500 steps\n"));
     assert!(md.contains("population std, ddof = 0"));
     assert!(md.contains("95% percentile bootstrap confidence interval"), "{md}");
@@ -250,20 +258,20 @@ fn latex_is_booktabs_with_tasks_side_by_side() {
     assert!(tex.contains("state trajectories (as the paper's Table 1)"));
     assert!(tex.contains("state-action trajectories (as the paper's Table 2)"));
     // Hopper-v5 has two budgets (400 and 500 steps), Walker2d-v5 one: three column groups.
-    // Four columns per group: both rewards, % Crash, % Time.
-    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(12))), "{tex}");
-    assert!(tex.contains("& \\multicolumn{4}{c}{Hopper-v5 (400 steps)} & \\multicolumn{4}{c}{Hopper-v5 (500 steps)} & \\multicolumn{4}{c}{Walker2d-v5}"), "{tex}");
-    assert!(tex.contains("\\cmidrule(lr){3-6} \\cmidrule(lr){7-10} \\cmidrule(lr){11-14}"), "{tex}");
-    assert!(tex.contains("Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & \\% Time &"));
+    // Five columns per group: both rewards, % Crash, crashes, % Time.
+    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(15))), "{tex}");
+    assert!(tex.contains("& \\multicolumn{5}{c}{Hopper-v5 (400 steps)} & \\multicolumn{5}{c}{Hopper-v5 (500 steps)} & \\multicolumn{5}{c}{Walker2d-v5}"), "{tex}");
+    assert!(tex.contains("\\cmidrule(lr){3-7} \\cmidrule(lr){8-12} \\cmidrule(lr){13-17}"), "{tex}");
+    assert!(tex.contains("Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time &"));
     assert!(tex.contains("Best episode: the best training-episode return of a run (the paper's Acc Reward)"));
-    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 100 & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
+    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & 100 & - & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
     assert!(
         tex.contains(
-            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 31$\\pm$0.8 & 17$\\pm$11.8 & 133 & - & - & - & - & - & - & - & - \\\\"
+            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 31$\\pm$0.8 & 17$\\pm$11.8 & 1$\\pm$0.5 & 133 & - & - & - & - & - & - & - & - & - & - \\\\"
         ),
         "{tex}"
     );
-    assert!(tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 100 &"), "{tex}");
+    assert!(tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 &"), "{tex}");
     // The state-action table does not list the state strategies.
     let second = &tex[tex.rfind("\\begin{table}").unwrap()..];
     assert!(!second.contains("MeanDemoW5"));

@@ -13,17 +13,23 @@ pub const DEFAULT_GAMMA_RISK: f64 = 0.8;
 pub struct SafetyFlags {
     /// Crash-penalty baseline: the agent learns from `reward - P x cost` (a crash step costs 1);
     /// the recorded returns stay the task's ([safety] method = "penalty", penalty = P).
-    #[arg(long, value_name = "P", conflicts_with_all = ["lagrangian", "recovery"], help_heading = "Baselines")]
+    #[arg(
+        long,
+        value_name = "P",
+        allow_negative_numbers = true,
+        conflicts_with_all = ["lagrangian", "recovery"],
+        help_heading = "Baselines"
+    )]
     pub penalty: Option<f64>,
     /// Lagrangian SAC (OmniSafe's SACLag rule) keeping the mean episode cost of the last 50
     /// episodes at D; with the crash cost, D is a target crash probability per episode in [0, 1]
     /// ([safety] method = "lagrangian", cost_limit = D).
-    #[arg(long, value_name = "D", conflicts_with = "recovery", help_heading = "Baselines")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true, conflicts_with = "recovery", help_heading = "Baselines")]
     pub lagrangian: Option<f64>,
     /// Recovery RL (model-free): a safety critic and a recovery policy pretrained on the
     /// demonstrations; the recovery policy acts when Q_risk(s, a) > EPS_RISK, in (0, 1)
     /// ([safety] method = "recovery", eps_risk = EPS_RISK).
-    #[arg(long, value_name = "EPS_RISK", help_heading = "Baselines")]
+    #[arg(long, value_name = "EPS_RISK", allow_negative_numbers = true, help_heading = "Baselines")]
     pub recovery: Option<f64>,
     /// Recovery RL's safety discount, in (0, 1) [default: 0.8] ([safety] gamma_risk).
     #[arg(long, value_name = "G", requires = "recovery", help_heading = "Baselines")]
