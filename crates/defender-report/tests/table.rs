@@ -262,7 +262,9 @@ fn latex_is_booktabs_with_tasks_side_by_side() {
     assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(15))), "{tex}");
     assert!(tex.contains("& \\multicolumn{5}{c}{Hopper-v5 (400 steps)} & \\multicolumn{5}{c}{Hopper-v5 (500 steps)} & \\multicolumn{5}{c}{Walker2d-v5}"), "{tex}");
     assert!(tex.contains("\\cmidrule(lr){3-7} \\cmidrule(lr){8-12} \\cmidrule(lr){13-17}"), "{tex}");
-    assert!(tex.contains("Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time &"));
+    assert!(tex.contains(
+        "Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time &"
+    ));
     assert!(tex.contains("Best episode: the best training-episode return of a run (the paper's Acc Reward)"));
     assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & 100 & - & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
     assert!(
@@ -271,7 +273,10 @@ fn latex_is_booktabs_with_tasks_side_by_side() {
         ),
         "{tex}"
     );
-    assert!(tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 &"), "{tex}");
+    assert!(
+        tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 &"),
+        "{tex}"
+    );
     // The state-action table does not list the state strategies.
     let second = &tex[tex.rfind("\\begin{table}").unwrap()..];
     assert!(!second.contains("MeanDemoW5"));

@@ -24,7 +24,13 @@ pub struct SafetyFlags {
     /// Lagrangian SAC (OmniSafe's SACLag rule) keeping the mean episode cost of the last 50
     /// episodes at D; with the crash cost, D is a target crash probability per episode in [0, 1]
     /// ([safety] method = "lagrangian", cost_limit = D).
-    #[arg(long, value_name = "D", allow_negative_numbers = true, conflicts_with = "recovery", help_heading = "Baselines")]
+    #[arg(
+        long,
+        value_name = "D",
+        allow_negative_numbers = true,
+        conflicts_with = "recovery",
+        help_heading = "Baselines"
+    )]
     pub lagrangian: Option<f64>,
     /// Recovery RL (model-free): a safety critic and a recovery policy pretrained on the
     /// demonstrations; the recovery policy acts when Q_risk(s, a) > EPS_RISK, in (0, 1)
