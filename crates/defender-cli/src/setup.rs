@@ -18,6 +18,12 @@ pub fn task_ids() -> Vec<&'static str> {
     defender_mujoco::TASKS.iter().map(|t| t.id).collect()
 }
 
+/// The episode cost limit of task `env_id` (`None`: a crash task, or an unknown id, which
+/// building the run then names).
+pub fn task_cost_limit(env_id: &str) -> Option<f64> {
+    defender_mujoco::Task::from_id(env_id).ok().and_then(|t| t.cost().episode_limit())
+}
+
 /// A built run: the agent, the training environment (DEFENDER around the task when configured),
 /// the unfiltered evaluation environment, and DEFENDER's section as resolved.
 pub struct Built {
@@ -59,6 +65,8 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     // Recovery RL pretrains on the demonstrations whatever `demos_in_replay` says.
     let recovery = crate::recovery_agent::needs_demos(config);
     let task = defender_mujoco::make(env_id)?;
+    let task_limit = task.inner().task().cost().episode_limit();
+    config.check_for_task(task_limit)?;
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
     let action_space = task.action_space().clone();
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
@@ -85,6 +93,8 @@ pub fn build(config: &RunConfig) -> Result<Built> {
         bail!("a DEFENDER run takes its demonstrations from [defender] demos, not the top-level `demos` key");
     }
     let mut section = section.clone();
+    // On a cost task an episode is unsafe past the task's limit unless the run sets its own.
+    section.episode_cost_limit = section.episode_cost_limit.or(task_limit);
     let path = demos_path(env_id, section.demos.as_deref())?;
     let sha256 = file_sha256(&path)?;
     if let Some(pinned) = &section.demos_sha256
@@ -186,6 +196,10 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
     let mut action = vec![0.0f32; space.dim()];
     let mut obs = Vec::new();
     let mut next = Vec::new();
+    // A set labelled by an episode cost (docs/SPEC.md, section 13) cuts an unsafe episode where
+    // its cost passed the limit: the episode went on, so no transition is terminal, and the
+    // cutting step is the one known to have cost 1 (the file keeps no other step's cost).
+    let cost_labelled = set.meta().extra.contains_key(defender::EPISODE_COST_LIMIT_KEY);
     for episode in set.episodes() {
         for t in 0..episode.len() {
             obs.clear();
@@ -205,8 +219,8 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
                 // The crash cost of the three tasks: a crashed demonstration's last step.
                 cost: if last && episode.crashed { 1.0 } else { 0.0 },
                 next_obs: &next,
-                terminated: last && episode.crashed,
-                truncated: last && !episode.crashed,
+                terminated: last && episode.crashed && !cost_labelled,
+                truncated: last && (!episode.crashed || cost_labelled),
             };
             agent.store_demonstration(&transition, !episode.crashed)?;
         }
@@ -225,11 +239,15 @@ pub fn file_sha256(path: &Path) -> Result<String> {
 }
 
 /// Records the training episodes as an episode set (`--record-episodes`), through the
-/// trainer's hooks; kept in the checkpoint so that a resumed run records every episode.
+/// trainer's hooks; kept in the checkpoint so that a resumed run records every episode. On a task
+/// with a per-step cost the episodes are labelled as demonstrations are (docs/SPEC.md, section
+/// 13): an episode whose cost passes the limit is unsafe and kept up to that step, so that the
+/// offline screen replays what the filter had to prevent.
 pub struct TrainingRecorder {
     set: EpisodeSet,
     recorder: EpisodeRecorder,
     started: bool,
+    violation: defender::ViolationTracker,
 }
 
 const RECORDED_FILE: &str = "recorded_episodes.npz";
@@ -237,17 +255,22 @@ const RECORDED_FILE: &str = "recorded_episodes.npz";
 impl TrainingRecorder {
     /// An empty recorder for `env_id`.
     pub fn new(env_id: &str, obs_dim: usize, act_dim: usize, provenance: String) -> Result<Self> {
-        let meta = Meta {
+        let rule = defender::UnsafeRule::from_limit(task_cost_limit(env_id))?;
+        let mut meta = Meta {
             env_id: Some(env_id.to_string()),
             obs_dim: Some(obs_dim),
             act_dim: Some(act_dim),
             provenance: Some(provenance),
             ..Meta::default()
         };
+        if let defender::UnsafeRule::CostAbove(limit) = rule {
+            meta.extra.insert(defender::EPISODE_COST_LIMIT_KEY.into(), limit.into());
+        }
         Ok(Self {
             set: EpisodeSet::new(obs_dim, act_dim, meta)?,
             recorder: EpisodeRecorder::new(),
             started: false,
+            violation: defender::ViolationTracker::new(rule),
         })
     }
 
@@ -255,16 +278,24 @@ impl TrainingRecorder {
     pub fn transition(&mut self, t: &Transition<'_>, env_action: &[f64]) -> Result<()> {
         if !self.started {
             self.recorder.start(t.obs);
+            self.violation.reset();
             self.started = true;
         }
-        self.recorder.step(env_action, t.reward, t.next_obs)?;
+        if !self.violation.violated() {
+            self.recorder.step(env_action, t.reward, t.next_obs)?;
+        }
+        self.violation.step(t.cost, t.terminated);
         Ok(())
     }
 
-    /// Ends the episode; a filtered episode is not a crash (SPEC section 6).
+    /// Ends the episode; a filtered episode is not a crash (SPEC section 6); on a cost task the
+    /// episode is unsafe when its cost passed the limit, whatever ended it.
     pub fn end_episode(&mut self, record: &EpisodeRecord) -> Result<()> {
         self.started = false;
-        let crashed = record.outcome() == Outcome::Crashed;
+        let crashed = match self.violation.rule() {
+            defender::UnsafeRule::Crash => record.outcome() == Outcome::Crashed,
+            defender::UnsafeRule::CostAbove(_) => self.violation.violated(),
+        };
         self.recorder.finish(&mut self.set, crashed)?;
         Ok(())
     }

@@ -478,7 +478,14 @@ mod tests {
     use super::*;
 
     /// The simulator's task ids (`defender_mujoco::TASKS`, which this crate does not link).
-    const TASKS: &[&str] = &["Hopper-v5", "Walker2d-v5", "InvertedDoublePendulum-v5"];
+    const TASKS: &[&str] = &[
+        "Hopper-v5",
+        "Walker2d-v5",
+        "InvertedDoublePendulum-v5",
+        "SafetyHopperVelocity-v1",
+        "SafetyWalker2dVelocity-v1",
+        "SafetyHalfCheetahVelocity-v1",
+    ];
 
     const GRID: &str = r#"
 description = "test"

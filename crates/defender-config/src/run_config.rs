@@ -173,13 +173,44 @@ impl RunConfig {
             td3.validate().context("[td3]")?;
         }
         if let Some(safety) = &self.safety {
-            // Every task defender runs today has the crash cost (1 per crashed episode).
-            safety.validate_for_crash_cost().context("[safety]")?;
+            // The limit's range depends on the task: RunConfig::check_for_task.
+            safety.validate().context("[safety]")?;
             if let (defender_rl::SafetyConfig::Lagrangian(_), Algo::Td3) = (safety, self.algo) {
                 bail!(
                     "[safety] method = \"lagrangian\" is Lagrangian SAC: it needs algo = \"sac\", not \"td3\""
                 );
             }
+        }
+        Ok(())
+    }
+
+    /// Checks the settings whose meaning depends on the task's safety signal, given the task's
+    /// episode cost limit (`None`: a crash task, whose episode cost is 1 if it crashed, else 0):
+    /// a Lagrangian `cost_limit` is a crash probability in [0, 1] on a crash task and a cost
+    /// `> 0` per episode on a cost task; `[defender] episode_cost_limit` exists only on a cost task.
+    ///
+    /// # Errors
+    /// The first setting that does not fit the task, naming its section, key and the task.
+    pub fn check_for_task(&self, task_limit: Option<f64>) -> Result<()> {
+        let env = &self.env;
+        if let Some(safety) = &self.safety {
+            match (safety, task_limit) {
+                (_, None) => safety
+                    .validate_for_crash_cost()
+                    .with_context(|| format!("[safety] on {env}, whose episode cost is a crash (1 or 0)"))?,
+                (defender_rl::SafetyConfig::Lagrangian(l), Some(limit)) if l.cost_limit <= 0.0 => bail!(
+                    "[safety] cost_limit = {}: on {env}, a task with a per-step cost, it must be > 0                      (the mean episode cost to keep under; Safety-Gymnasium's is {limit})",
+                    l.cost_limit
+                ),
+                _ => {}
+            }
+        }
+        if let Some(d) = &self.defender
+            && let (Some(given), None) = (d.episode_cost_limit, task_limit)
+        {
+            bail!(
+                "[defender] episode_cost_limit = {given}: {env}'s safety is a crash (any crash is                  unsafe), not a per-step cost; leave the key out"
+            );
         }
         Ok(())
     }
@@ -279,6 +310,11 @@ pub struct DefenderSection {
     /// or empty: SPEC section 4's filter.
     #[serde(default, skip_serializing_if = "defender::FilterOptions::is_spec")]
     pub filter: defender::FilterOptions,
+    /// On a task whose safety is a cost, the episode cost past which an episode is unsafe
+    /// (docs/SPEC.md, section 13); the run resolves it to the task's limit (25 on the velocity
+    /// tasks) when left out, and `config.toml` records it. Absent on a crash task.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub episode_cost_limit: Option<f64>,
     /// The dynamics model (SPEC section 5).
     #[serde(default)]
     pub dynamics: defender::DynamicsConfig,
@@ -378,6 +414,7 @@ impl DefenderSection {
             demos_sha256: None,
             cost: Default::default(),
             filter: Default::default(),
+            episode_cost_limit: None,
             dynamics: Default::default(),
             selection: None,
         }
@@ -402,6 +439,7 @@ impl DefenderSection {
             );
         }
         self.cost.validate().context("[defender.cost]")?;
+        defender::UnsafeRule::from_limit(self.episode_cost_limit)?;
         self.filter.validate()?;
         self.dynamics.validate()?;
         Ok(())
@@ -416,6 +454,7 @@ impl DefenderSection {
             r_task: self.r_task,
             cost: self.cost.options(),
             filter: self.filter,
+            episode_cost_limit: self.episode_cost_limit,
             dynamics: self.dynamics.clone(),
         })
     }

@@ -1,5 +1,9 @@
 //! [`Cost`]: what makes a step of a task cost 1 (the substrate's `Step::cost`).
 
+/// Safety-Gymnasium's and OmniSafe's limit on an episode's cost (`cost_limit: 25.0` in OmniSafe's
+/// configurations): the benchmark's convention for the velocity tasks.
+pub const EPISODE_COST_LIMIT: f64 = 25.0;
+
 /// The per-step cost rule of a task. A cost is 0 or 1 for every rule.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
@@ -39,6 +43,15 @@ impl Cost {
         }
     }
 
+    /// The episode cost a run should keep under: [`EPISODE_COST_LIMIT`] for a velocity rule;
+    /// `None` for a crash task (any crash is a violation) and for a task without cost.
+    pub fn episode_limit(self) -> Option<f64> {
+        match self {
+            Cost::Velocity { .. } => Some(EPISODE_COST_LIMIT),
+            Cost::Crash | Cost::None => None,
+        }
+    }
+
     /// The threshold of a velocity rule, `None` for the others.
     pub fn threshold(self) -> Option<f64> {
         match self {
@@ -72,6 +85,8 @@ mod tests {
         assert_eq!(rule.of_step(true, 5.0), 1.0);
         assert_eq!(rule.of_step(false, -5.0), 0.0, "signed velocity: running backwards is free");
         assert_eq!(rule.to_string(), "velocity > 0.7402");
+        assert_eq!(rule.episode_limit(), Some(25.0));
+        assert_eq!((Cost::Crash.episode_limit(), Cost::None.episode_limit()), (None, None));
     }
 
     #[test]

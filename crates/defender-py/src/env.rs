@@ -350,7 +350,16 @@ impl Core {
                     )
                 }
             };
-            let config = DefenderConfig { strategy, mode, num_demos, r_task, cost, filter, dynamics };
+            let config = DefenderConfig {
+                strategy,
+                mode,
+                num_demos,
+                r_task,
+                cost,
+                filter,
+                episode_cost_limit: None,
+                dynamics,
+            };
             let mut rng = match seed {
                 Some(s) => ChaCha8Rng::seed_from_u64(s),
                 None => ChaCha8Rng::from_rng(&mut rand::rng()),

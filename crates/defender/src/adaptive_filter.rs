@@ -3,7 +3,7 @@
 //! the demonstrations. Everything that changes does so between episodes, so a step costs what the
 //! plain [`Filter`]'s does; `DefenderEnv` and the offline screen drive it the same way:
 //! [`AdaptiveFilter::begin`], then per step [`AdaptiveFilter::push`] and (when executed)
-//! [`AdaptiveFilter::executed`], then [`AdaptiveFilter::end`].
+//! [`AdaptiveFilter::executed`] and [`AdaptiveFilter::real_step`], then [`AdaptiveFilter::end`].
 
 use std::collections::VecDeque;
 use std::path::Path;
@@ -19,6 +19,7 @@ use crate::filter::{Decision, Filter};
 use crate::filter_options::{FilterOptions, MAX_ADAPTIVE_MARGIN};
 use crate::recorder::EpisodeRecorder;
 use crate::strategy::Strategy;
+use crate::violation::{UnsafeRule, ViolationTracker};
 
 /// File names inside a checkpoint's environment directory.
 const STATE_FILE: &str = "filter_state.json";
@@ -41,6 +42,8 @@ pub struct AdaptiveFilter {
     own: [VecDeque<EpisodeSet>; 2],
     recorder: EpisodeRecorder,
     recording: bool,
+    /// What makes an own episode unsafe, and the current episode against it.
+    violation: ViolationTracker,
 }
 
 impl AdaptiveFilter {
@@ -59,7 +62,14 @@ impl AdaptiveFilter {
             own: [VecDeque::new(), VecDeque::new()],
             recorder: EpisodeRecorder::new(),
             recording: false,
+            violation: ViolationTracker::new(UnsafeRule::Crash),
         })
+    }
+
+    /// The filter whose own episodes are labelled by `rule` (the crash rule unless set).
+    pub fn with_rule(mut self, rule: UnsafeRule) -> Self {
+        self.violation = ViolationTracker::new(rule);
+        self
     }
 
     /// The filter as it stands (its demonstrations include the own episodes that joined).
@@ -85,6 +95,7 @@ impl AdaptiveFilter {
     /// Starts an episode whose first observation is `obs`.
     pub fn begin(&mut self, obs: &[f64]) {
         self.filter.reset();
+        self.violation.reset();
         self.recording = self.options.own_episodes.is_some();
         if self.recording {
             self.recorder.start(obs);
@@ -104,17 +115,27 @@ impl AdaptiveFilter {
     /// # Errors
     /// Only with own episodes on: a recorder error (cannot happen after [`AdaptiveFilter::begin`]).
     pub fn executed(&mut self, action: &[f64], reward: f64, next_obs: &[f64]) -> Result<()> {
-        if self.recording {
+        // An unsafe episode is kept up to the step that made it so (crate::violation).
+        if self.recording && !self.violation.violated() {
             self.recorder.step(action, reward, next_obs)?;
         }
         Ok(())
     }
 
-    /// The episode ended with `outcome`: the budget moves the margin, and an episode that crashed
-    /// or reached the horizon joins its group (own episodes on). A filtered episode joins no
-    /// group: nobody knows how it would have ended. Nor does one truncated before the horizon the
-    /// demonstrations were made with (their longest safe one), by a time limit shorter than the
-    /// task's: it did not crash, but it is not safe by the rule the demonstrations follow.
+    /// A step reached the environment (after [`AdaptiveFilter::executed`], if its transition was
+    /// usable): it cost `cost` and ended the episode if `terminated`. Under a cost rule, the step
+    /// whose cost passes the limit is the last one an own unsafe episode keeps.
+    pub fn real_step(&mut self, cost: f64, terminated: bool) {
+        self.violation.step(cost, terminated);
+    }
+
+    /// The episode ended with `outcome`: the budget moves the margin, and an episode that is
+    /// unsafe (crate::violation) or reached the horizon joins its group (own episodes on). A
+    /// filtered episode joins no group, unless its cost had already passed the limit: nobody knows
+    /// how it would have ended. Nor does one truncated before the horizon the demonstrations were
+    /// made with (their longest safe one), by a time limit shorter than the task's: it did not
+    /// crash, but it is not safe by the rule the demonstrations follow; nor, under a cost rule,
+    /// one the environment ended without passing the limit (a fall).
     ///
     /// # Errors
     /// Rebuilding the groups failed (a DTW error for an unusable episode, e.g. non-finite).
@@ -128,8 +149,11 @@ impl AdaptiveFilter {
         let (Some(own), true) = (self.options.own_episodes, recorded) else {
             return Ok(());
         };
+        let cost_rule = matches!(self.violation_rule(), UnsafeRule::CostAbove(_));
         let crashed = match outcome {
+            _ if cost_rule && self.violation.violated() => true,
             Outcome::Filtered => return Ok(()),
+            Outcome::Crashed if cost_rule => return Ok(()),
             Outcome::Crashed => true,
             Outcome::Truncated if self.recorder.len() < self.base.safe_horizon() => return Ok(()),
             Outcome::Truncated => false,
@@ -145,6 +169,16 @@ impl AdaptiveFilter {
         }
         group.push_back(set);
         self.rebuild()
+    }
+
+    /// The step just executed made the episode unsafe: for a replay of labelled episodes
+    /// (crate::screen), which knows where each unsafe one was cut but not its per-step costs.
+    pub fn violated(&mut self) {
+        self.violation.force();
+    }
+
+    fn violation_rule(&self) -> UnsafeRule {
+        self.violation.rule()
     }
 
     /// The filter over the base demonstrations joined by the own episodes, keeping the margin.

@@ -18,6 +18,7 @@ use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
 use crate::filter_options::FilterOptions;
 use crate::strategy::{Mode, Strategy};
+use crate::violation::UnsafeRule;
 
 /// The largest `|R_task|` accepted: far beyond any task's per-step reward, small enough that
 /// Q-learning targets stay finite in f32.
@@ -47,6 +48,10 @@ pub struct DefenderConfig {
     /// The filter's precision options (`[defender.filter]`; off by default).
     #[serde(default, skip_serializing_if = "FilterOptions::is_spec")]
     pub filter: FilterOptions,
+    /// On a task whose safety is a cost: an episode is unsafe once its cost passes this limit
+    /// (docs/SPEC.md, section 13; Safety-Gymnasium's 25). `None`: unsafe is a crash.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub episode_cost_limit: Option<f64>,
     /// The dynamics model.
     #[serde(default)]
     pub dynamics: DynamicsConfig,
@@ -68,6 +73,7 @@ impl Default for DefenderConfig {
             r_task: None,
             cost: CostOptions::default(),
             filter: FilterOptions::default(),
+            episode_cost_limit: None,
             dynamics: DynamicsConfig::default(),
         }
     }
@@ -135,6 +141,8 @@ impl<E: Env> DefenderEnv<E> {
     ) -> Result<Self> {
         let (obs_dim, act_dim) = (inner.observation_space().dim(), inner.action_space().dim());
         demos.check_env(inner.id(), obs_dim, act_dim)?;
+        let rule = UnsafeRule::from_limit(config.episode_cost_limit)?;
+        rule.check_demos(demos)?;
         let selected;
         let demos = match config.num_demos {
             Some(n) => {
@@ -154,7 +162,7 @@ impl<E: Env> DefenderEnv<E> {
             }
             None => f64::from(prepared.min_reward()),
         };
-        let filter = AdaptiveFilter::new(&prepared, config.strategy, config.filter)?;
+        let filter = AdaptiveFilter::new(&prepared, config.strategy, config.filter)?.with_rule(rule);
         let model = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
         let dynamics = TrainedDynamics::new(model, config.dynamics.background)?;
         Ok(Self {
@@ -351,6 +359,7 @@ impl<E: Env> Env for DefenderEnv<E> {
             self.filter.executed(action, step.reward, &step.obs).map_err(env_error)?;
             self.obs.copy_from_slice(&step.obs);
         }
+        self.filter.real_step(step.cost, step.terminated);
         if step.terminated {
             self.end_episode(Outcome::Crashed).map_err(env_error)?;
         } else if step.truncated {

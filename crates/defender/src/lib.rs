@@ -25,6 +25,7 @@ mod screen;
 pub mod selection;
 mod strategy;
 pub mod synthetic;
+mod violation;
 mod window;
 
 pub use ablation::{Ablation, EpisodeReplay, Progress, ablate, ablate_scored};
@@ -49,4 +50,5 @@ pub use score::{
 pub use scoring::{AuthorsTally, Scoring};
 pub use screen::{ScreenTally, screen};
 pub use strategy::{Mode, Strategy};
+pub use violation::{EPISODE_COST_LIMIT_KEY, UnsafeRule, ViolationTracker};
 pub use window::{Span, Window};

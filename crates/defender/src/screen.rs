@@ -17,6 +17,7 @@ use crate::episode_set::EpisodeSet;
 use crate::error::Result;
 use crate::filter_options::FilterOptions;
 use crate::strategy::Strategy;
+use crate::violation::UnsafeRule;
 
 /// Counts of one replay.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
@@ -95,7 +96,10 @@ pub fn screen(
     first: Option<usize>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ScreenTally> {
-    let mut filter = AdaptiveFilter::new(demos, strategy, options)?;
+    // A recorded set of a cost task says its limit (crate::violation): its unsafe episodes end on
+    // their violating step, and own episodes join by that rule, as in training.
+    let rule = UnsafeRule::of_set(episodes)?;
+    let mut filter = AdaptiveFilter::new(demos, strategy, options)?.with_rule(rule);
     let total = first.map_or(episodes.len(), |n| n.min(episodes.len()));
     let mut t = ScreenTally::default();
     let (mut obs, mut act, mut next) = (Vec::new(), Vec::new(), Vec::new());
@@ -119,6 +123,9 @@ pub fn screen(
             }
             widen(e.observation(i + 1), &mut next);
             filter.executed(&act, f64::from(e.rew[i]), &next)?;
+            if e.crashed && i + 1 == e.len() {
+                filter.violated();
+            }
         }
         let outcome = match filtered_at {
             Some(k) => {

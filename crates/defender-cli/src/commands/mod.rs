@@ -3,7 +3,6 @@
 pub mod ablate;
 pub mod bench;
 pub mod demos;
-mod demos_authors;
 pub mod env;
 pub mod report;
 pub mod safety_flags;

@@ -123,6 +123,10 @@ pub fn run(args: ScreenArgs) -> Result<()> {
         set = set.select_demos(n)?;
     }
     let episodes = EpisodeSet::load(&args.episodes)?;
+    // Both files must call the same episodes unsafe (docs/SPEC.md, section 13).
+    defender::UnsafeRule::of_set(&episodes)?
+        .check_demos(&set)
+        .with_context(|| format!("--demos against the rule of --episodes {}", args.episodes.display()))?;
     if (episodes.obs_dim(), episodes.act_dim()) != (set.obs_dim(), set.act_dim()) {
         bail!(
             "--episodes {} has (obs, act) dimensions ({}, {}); the demonstrations have ({}, {}): \

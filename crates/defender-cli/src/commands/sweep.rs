@@ -51,6 +51,11 @@ pub fn run(args: SweepArgs) -> Result<()> {
         );
     }
     let experiment = experiment::load(&args.experiment, &crate::setup::task_ids())?;
+    for run in &experiment.runs {
+        run.config.check_for_task(crate::setup::task_cost_limit(&run.config.env)).with_context(|| {
+            format!("{}: not a valid experiment: run '{}'", args.experiment.display(), run.name)
+        })?;
+    }
     if args.list {
         for run in &experiment.runs {
             for warning in defender_config::inert::warnings(&run.config) {

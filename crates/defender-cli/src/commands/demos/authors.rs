@@ -12,8 +12,10 @@ use defender_rl::{
     Trainer, TrainerConfig, derive_seed,
 };
 
-use super::demos::{CollectArgs, make_env, record_episode};
+use super::CollectArgs;
+use super::record::{make_env, record_episode, unsafe_rule};
 use crate::progress;
+use defender::UnsafeRule;
 use defender_config::profile::Profile;
 
 /// Their training budget, in episodes (`HyperParams.num_episodes`).
@@ -52,6 +54,12 @@ pub fn collect(args: &CollectArgs) -> Result<()> {
     }
     crate::run_dir::check_writable(&args.out).context("--out")?;
     let env = make_env(args)?;
+    if unsafe_rule(args, &env)? != UnsafeRule::Crash || args.learner.is_some() {
+        bail!(
+            "--profile authors collects as the paper's code did, on a crash task with their SAC: {}              needs the spec rule (leave --profile, --episode-cost-limit and --learner out)",
+            args.env
+        );
+    }
     let horizon = env.max_episode_steps().context("the task has no horizon")?;
     let (obs_dim, act_dim) = (env.observation_space().dim(), env.action_space().dim());
     let agent = AlgoConfig::Sac(authors_sac()?).build(obs_dim, act_dim, args.seed)?;
@@ -122,7 +130,7 @@ impl Hooks for Demonstrator {
         }
         let seed = derive_seed(self.seed, SeedPurpose::Demonstration, record.episode);
         // Their `choose_action` samples the policy: a stochastic episode.
-        record_episode(&mut self.demo_env, agent, &mut self.recorder, seed, false)?;
+        record_episode(&mut self.demo_env, agent, &mut self.recorder, seed, false, UnsafeRule::Crash)?;
         self.collection.add(&mut self.recorder, record.episode)?;
         let (safe, unsafe_) = self.collection.group_sizes();
         self.bar.set_message(format!(
