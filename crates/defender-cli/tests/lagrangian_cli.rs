@@ -82,7 +82,9 @@ fn lagrangian_sac_trains_records_its_section_and_resumes_exactly() {
     let config = config(root.path());
     let whole = root.path().join("whole");
     let args = train_args(&config, &whole);
-    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let said = ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    // The summary line names the baseline (a run with [safety] is not bare).
+    assert!(said.contains(&format!("{ENV_ID} sac lagrangian seed 3: ")), "{said}");
 
     let saved = read(&whole, "config.toml");
     assert!(saved.contains("[safety]\nmethod = \"lagrangian\"\ncost_limit = 0.5\n"), "{saved}");
