@@ -20,13 +20,28 @@ from .horizon import env_horizon, warn_short_safe, warn_time_limit
 
 #: The keys :class:`DefenderWrapper` adds to every step's ``info`` (flat scalars, so that SB3's
 #: ``Monitor(info_keywords=...)`` and vector environments carry them).
-INFO_KEYS = ("defender_filtered", "defender_safe_cost", "defender_unsafe_cost", "defender_outcome")
+INFO_KEYS = ("cost", "defender_filtered", "defender_safe_cost", "defender_unsafe_cost", "defender_outcome")
 
-#: The keys of every step, also put into ``reset``'s ``info`` with these neutral values (no step
-#: was filtered; no cost was computed), so that a vector environment's ``info`` has them on every
-#: step whatever its autoreset mode (under next-step autoreset, a sub-environment's ``info`` on
-#: the step that resets it is ``reset``'s).
-RESET_INFO = {"defender_filtered": False, "defender_safe_cost": float("nan"), "defender_unsafe_cost": float("nan")}
+#: The keys of every step, also put into ``reset``'s ``info`` with these neutral values (a reset
+#: takes no step: nothing was filtered, no DTW cost was computed, no safety cost was incurred),
+#: so that a vector environment's ``info`` has them on every step whatever its autoreset mode
+#: (under next-step autoreset, a sub-environment's ``info`` on the step that resets it is
+#: ``reset``'s).
+RESET_INFO = {
+    "cost": 0.0,
+    "defender_filtered": False,
+    "defender_safe_cost": float("nan"),
+    "defender_unsafe_cost": float("nan"),
+}
+
+
+class _DefaultCostKey(str):
+    """The default ``cost_key``, ``"cost"``, told apart by identity from a ``"cost"`` the user
+    passes: a key the user names must be in every step's ``info`` (else a typo would pass
+    silently as "no violation"), while the default may be absent (then the crash rule)."""
+
+
+_DEFAULT_COST_KEY = _DefaultCostKey("cost")
 
 #: Episode statistics recorded *inside* DefenderWrapper miss the steps it filters (the wrapped
 #: environment never sees them), so they describe another training than the one that runs.
@@ -151,7 +166,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     * filtered: the wrapped environment is **not** stepped; the step returns the dynamics
       model's prediction as the observation, reward ``R_task``, ``terminated=True``.
 
-    ``info`` gets ``defender_filtered`` (bool), ``defender_safe_cost`` and
+    ``info`` gets ``cost`` (the step's safety cost, a float: see ``cost_key``),
+    ``defender_filtered`` (bool), ``defender_safe_cost`` and
     ``defender_unsafe_cost`` (floats) on every step and, on the last step of an episode,
     ``defender_outcome``: ``"crashed"`` (the environment terminated it), ``"filtered"`` (DEFENDER
     ended it) or ``"truncated"`` (the time limit).
@@ -217,6 +233,19 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             field and the element (as Stable-Baselines3's ``VecCheckNan`` does, but on by
             default: such a value would otherwise reach the dynamics model and the agent).
             ``False`` lets them through.
+        cost_key: the key of the wrapped environment's step ``info`` that holds the step's safety
+            cost (docs/SPEC.md, section 12; safety-gymnasium's Gymnasium-API conversion puts it
+            under ``"cost"``, the default). The cost used is returned as ``info["cost"]`` (replacing
+            the environment's own ``"cost"`` when ``cost_key`` names another key) and carried by
+            the Rust ``DefenderEnv``'s step, as ``defender train`` carries its tasks' costs. A
+            filtered step costs 0: its action never reached the environment. A step whose
+            ``info`` lacks the default key costs by the crash rule ``defender train`` applies on
+            Hopper-v5 and the other crash tasks: 1 when the environment terminated the episode,
+            else 0. A key passed explicitly must be in every step's ``info``: a step without it
+            raises :class:`DefenderError` naming ``cost_key``, the key and the ``info`` keys there
+            are. ``None``: no key, the crash rule on every step. A cost that is not a number
+            raises ``TypeError``; a negative or non-finite one raises :class:`DefenderError`,
+            naming the key.
 
     The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
     ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
@@ -245,13 +274,17 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         check_finite: bool = True,
         filter: Mapping[str, Any] | None = None,  # noqa: A002 (the [defender.filter] section's name)
         profile: str = "keeps-learning",
+        cost_key: str | None = _DEFAULT_COST_KEY,
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
+        cost_key_required = cost_key is not _DEFAULT_COST_KEY
+        # Recorded only when given, so that a rebuilt wrapper keeps the default's leniency.
+        given = {"cost_key": cost_key} if cost_key_required else {}
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
             dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite, filter=filter,
-            profile=profile,
+            profile=profile, **given,
         )  # so that env.spec (and gymnasium.make(env.spec)) can rebuild the wrapper
         gym.Wrapper.__init__(self, env)
         _warn_statistics_inside(env)
@@ -278,6 +311,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         seed = whole("seed", seed, 0, U64_MAX, optional=True)
         if not isinstance(check_finite, (bool, np.bool_)):
             raise TypeError(f"check_finite must be True or False, got {check_finite!r}")
+        if cost_key is not None and not isinstance(cost_key, str):
+            raise TypeError(f"cost_key must be a string (a key of the step's info) or None, got {cost_key!r}")
         dynamics_json = None
         if dynamics is not None:
             if not isinstance(dynamics, Mapping):
@@ -320,6 +355,8 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             scaling,
             bool(check_finite),
             filter_json,
+            None if cost_key is None else str(cost_key),
+            cost_key_required,
         )
         if announce:
             _say(f"DefenderWrapper: strategy='auto' chose {self.strategy} in {time.monotonic() - started:.0f} s")

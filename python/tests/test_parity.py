@@ -1,7 +1,8 @@
 """Parity: DefenderWrapper around Gymnasium's own MuJoCo Hopper-v5 and the Rust DefenderEnv around
 defender-mujoco's Hopper-v5 (crates/defender/examples/defender_trace.rs), started from the same
-states and fed the same actions, make the same decision at every step, with the same costs, the
-same observations (the dynamics model's predictions on filtered steps), rewards and outcomes.
+states and fed the same actions, make the same decision at every step, with the same costs (the
+filter's DTW costs and the steps' safety costs), the same observations (the dynamics model's
+predictions on filtered steps), rewards and outcomes.
 
 Each episode starts as `defender env replay` does: Gymnasium's reset, then MuJoCo's data reset,
 then set_state(qpos, qvel). Both sides seed the dynamics model with ChaCha8Rng(seed)."""
@@ -90,6 +91,7 @@ def test_python_wrapper_and_rust_defender_env_agree(strategy, tmp_path):
                           profile="spec")  # the Rust trace's DefenderConfig: SPEC's filter
     assert env.r_task == rust["r_task"]
     counts = {"filtered": 0, "executed": 0, "filtered_after_training": 0}
+    total_cost = 0.0
     for k, (ep, rep) in enumerate(zip(episodes, rust["episodes"])):
         obs, _ = env.reset()
         np.testing.assert_allclose(obs, rep["reset_obs"], rtol=0, atol=1e-9, err_msg=f"episode {k} reset")
@@ -103,6 +105,9 @@ def test_python_wrapper_and_rust_defender_env_agree(strategy, tmp_path):
             assert info["defender_unsafe_cost"] == pytest.approx(r["unsafe_cost"], rel=1e-6, abs=1e-6), where
             np.testing.assert_allclose(obs, r["obs"], rtol=1e-6, atol=1e-6, err_msg=where)
             assert reward == pytest.approx(r["reward"], rel=1e-6, abs=1e-6), where
+            # Gymnasium's Hopper-v5 has no "cost" in its info: the crash rule, as defender-mujoco's.
+            assert info["cost"] == r["cost"], where
+            total_cost += info["cost"]
             assert (terminated, truncated) == (r["terminated"], r["truncated"]), where
             steps += 1
             if r["filtered"]:
@@ -116,5 +121,6 @@ def test_python_wrapper_and_rust_defender_env_agree(strategy, tmp_path):
                 break
         assert steps == len(rep["steps"]), f"episode {k}: {steps} steps in Python, {len(rep['steps'])} in Rust"
     assert env.defender_stats == rust["stats"]
+    assert total_cost == env.defender_stats["crashed_episodes"], "a crash costs 1, any other step 0"
     # The comparison covered both kinds of steps, and predictions of a trained model.
     assert counts["executed"] > 20 and counts["filtered_after_training"] >= 3, counts

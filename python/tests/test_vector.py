@@ -19,7 +19,7 @@ from defender_rl.wrapper import RESET_INFO
 
 from conftest import DriftEnv, drift_demos
 
-PER_STEP = ("defender_filtered", "defender_safe_cost", "defender_unsafe_cost")
+PER_STEP = ("cost", "defender_filtered", "defender_safe_cost", "defender_unsafe_cost")
 
 
 def make_drift(seed: int):

@@ -9,6 +9,8 @@ use std::process::{Command, Output};
 
 use defender::EpisodeSet;
 
+mod common;
+
 fn defender(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_defender"))
         .env("DEFENDER_NN_THREADS", "1")
@@ -307,17 +309,6 @@ fn tensors(dir: &Path) -> Vec<u8> {
     bytes[8 + n..].to_vec()
 }
 
-/// `metrics.csv` without the wall-clock column.
-fn metrics(dir: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    // wall_seconds is the sixth column (columns added later, like cost, come after it).
-    text.lines()
-        .map(|l| {
-            l.split(',').enumerate().filter(|(i, _)| *i != 5).map(|(_, f)| f).collect::<Vec<_>>().join(",")
-        })
-        .collect()
-}
-
 #[test]
 fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
     // The authors' bare SAC with the demonstrations in its buffer and their BC term (the
@@ -376,7 +367,11 @@ fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
     assert!(kill.success());
     assert_eq!(child.wait().unwrap().code(), Some(143), "the run ended before it was stopped");
     ok(&["train", "--out", s(&out), "--resume"]);
-    assert_eq!(metrics(&alone), metrics(&out), "metrics.csv differs");
+    assert_eq!(
+        common::metrics_without_wall(&alone),
+        common::metrics_without_wall(&out),
+        "metrics.csv differs"
+    );
     for file in ["eval.csv", "updates.csv"] {
         let read = |d: &Path| std::fs::read_to_string(d.join(file)).unwrap();
         assert_eq!(read(&alone), read(&out), "{file} differs");

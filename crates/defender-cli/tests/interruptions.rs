@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
 fn bin() -> Command {
@@ -53,19 +55,8 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-/// `metrics.csv` without the wall-clock column (the only one that depends on the machine).
-fn metrics(dir: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    // wall_seconds is the sixth column (columns added later, like cost, come after it).
-    text.lines()
-        .map(|l| {
-            l.split(',').enumerate().filter(|(i, _)| *i != 5).map(|(_, f)| f).collect::<Vec<_>>().join(",")
-        })
-        .collect()
-}
-
 fn same_results(a: &Path, b: &Path) {
-    let (ma, mb) = (metrics(a), metrics(b));
+    let (ma, mb) = (common::metrics_without_wall(a), common::metrics_without_wall(b));
     assert_eq!(ma.len(), mb.len(), "episode counts differ");
     assert_eq!(ma, mb, "metrics.csv differs");
     let eval = |d: &Path| std::fs::read_to_string(d.join("eval.csv")).unwrap();

@@ -7,6 +7,8 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
 fn command() -> Command {
@@ -47,18 +49,6 @@ fn read(dir: &Path, name: &str) -> String {
     std::fs::read_to_string(dir.join(name)).unwrap()
 }
 
-/// `metrics.csv` without the wall-clock column (the only one that depends on the machine).
-fn metrics(dir: &Path) -> Vec<String> {
-    let text = read(dir, "metrics.csv");
-    let wall = text.lines().next().unwrap().split(',').position(|c| c == "wall_seconds").unwrap();
-    let drop_wall = |l: &str| {
-        let fields: Vec<&str> =
-            l.split(',').enumerate().filter(|(i, _)| *i != wall).map(|(_, f)| f).collect();
-        fields.join(",")
-    };
-    text.lines().map(drop_wall).collect()
-}
-
 /// The final actor's tensor bytes (after safetensors' JSON header, whose key order is not fixed).
 fn actor(dir: &Path) -> Vec<u8> {
     let bytes = std::fs::read(dir.join("actor.safetensors")).unwrap();
@@ -92,7 +82,9 @@ fn lagrangian_sac_trains_records_its_section_and_resumes_exactly() {
     let config = config(root.path());
     let whole = root.path().join("whole");
     let args = train_args(&config, &whole);
-    ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let said = ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    // The summary line names the baseline (a run with [safety] is not bare).
+    assert!(said.contains(&format!("{ENV_ID} sac lagrangian seed 3: ")), "{said}");
 
     let saved = read(&whole, "config.toml");
     assert!(saved.contains("[safety]\nmethod = \"lagrangian\"\ncost_limit = 0.5\n"), "{saved}");
@@ -123,7 +115,11 @@ fn lagrangian_sac_trains_records_its_section_and_resumes_exactly() {
     assert!(term.success());
     assert_eq!(child.wait().unwrap().code(), Some(143), "not stopped by SIGTERM before its end");
     ok(&["train", "--out", s(&resumed), "--resume"]);
-    assert_eq!(metrics(&resumed), metrics(&whole), "metrics.csv differs");
+    assert_eq!(
+        common::metrics_without_wall(&resumed),
+        common::metrics_without_wall(&whole),
+        "metrics.csv differs"
+    );
     assert_eq!(read(&resumed, "eval.csv"), read(&whole, "eval.csv"));
     assert_eq!(read(&resumed, "updates.csv"), updates);
     assert!(actor(&resumed) == actor(&whole), "the final actors differ");

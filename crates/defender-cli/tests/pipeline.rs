@@ -6,6 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
 fn defender(args: &[&str]) -> Output {
@@ -452,21 +454,8 @@ fn one_or_two_threads_and_the_model_on_its_own_thread_change_nothing_a_run_write
             .output()
             .expect("run defender");
         assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
-        let without_wall = |name: &str| -> Vec<String> {
-            let text = std::fs::read_to_string(out.join(name)).unwrap();
-            text.lines()
-                .map(|l| {
-                    l.split(',')
-                        .enumerate()
-                        .filter(|(i, _)| *i != 5)
-                        .map(|(_, f)| f)
-                        .collect::<Vec<_>>()
-                        .join(",")
-                })
-                .collect()
-        };
         let whole = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
-        (without_wall("metrics.csv"), whole("eval.csv"), whole("updates.csv"), whole("dynamics.csv"))
+        (common::metrics_without_wall(&out), whole("eval.csv"), whole("updates.csv"), whole("dynamics.csv"))
     };
     let (inline, own_thread) = (run("1"), run("2"));
     assert!(inline.2.lines().count() >= 3 && inline.3.lines().count() >= 3, "no rows: {inline:?}");

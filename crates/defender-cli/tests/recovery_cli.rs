@@ -8,6 +8,8 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
+mod common;
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
 fn bin() -> Command {
@@ -56,18 +58,6 @@ fn read(dir: &Path, file: &str) -> String {
     std::fs::read_to_string(dir.join(file)).unwrap()
 }
 
-/// `metrics.csv` without the `wall_seconds` column (the one that depends on the machine).
-fn metrics(dir: &Path) -> Vec<String> {
-    let text = read(dir, "metrics.csv");
-    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let wall = header.iter().position(|h| *h == "wall_seconds").unwrap();
-    text.lines()
-        .map(|l| {
-            l.split(',').enumerate().filter(|(i, _)| *i != wall).map(|(_, f)| f).collect::<Vec<_>>().join(",")
-        })
-        .collect()
-}
-
 #[test]
 fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
     let dir = tempfile::tempdir().unwrap();
@@ -109,7 +99,7 @@ fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
     assert_eq!(child.wait().unwrap().code(), Some(143), "the run ended before it was stopped");
     assert!(out.join("checkpoint/agent/recovery/state.json").exists());
     ok(&["train", "--out", s(&out), "--resume"]);
-    let (ma, mo) = (metrics(&alone), metrics(&out));
+    let (ma, mo) = (common::metrics_without_wall(&alone), common::metrics_without_wall(&out));
     let first = ma.iter().zip(&mo).position(|(a, b)| a != b);
     assert!(ma == mo, "metrics.csv differs from row {first:?}: {:?}", first.map(|i| (&ma[i], &mo[i])));
     for file in ["eval.csv", "updates.csv"] {

@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
 fn defender(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_defender")).args(args).output().expect("run defender")
 }
@@ -25,16 +27,6 @@ fn s(p: &Path) -> &str {
 
 const RUNS: [&str; 2] =
     ["InvertedDoublePendulum-v5/sac-bare-s0", "InvertedDoublePendulum-v5/sac-MinDemoW5-MinDemoW10-s0"];
-
-fn metrics(dir: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    // wall_seconds is the sixth column (columns added later, like cost, come after it).
-    text.lines()
-        .map(|l| {
-            l.split(',').enumerate().filter(|(i, _)| *i != 5).map(|(_, f)| f).collect::<Vec<_>>().join(",")
-        })
-        .collect()
-}
 
 fn actor_tensors(dir: &Path) -> Vec<u8> {
     let bytes = std::fs::read(dir.join("actor.safetensors")).unwrap();
@@ -79,7 +71,11 @@ fn a_sweep_stopped_by_sigterm_and_started_again_equals_one_left_alone() {
     let again = defender(&["sweep", s(&smoke()), "--out", s(&stopped), "--jobs", "2"]);
     assert!(again.status.success(), "{}", text(&again));
     for r in RUNS {
-        assert_eq!(metrics(&alone.join(r)), metrics(&stopped.join(r)), "{r}: metrics.csv differs");
+        assert_eq!(
+            common::metrics_without_wall(&alone.join(r)),
+            common::metrics_without_wall(&stopped.join(r)),
+            "{r}: metrics.csv differs"
+        );
         let eval = |d: &Path| std::fs::read_to_string(d.join(r).join("eval.csv")).unwrap();
         assert_eq!(eval(&alone), eval(&stopped), "{r}: eval.csv differs");
         assert!(actor_tensors(&alone.join(r)) == actor_tensors(&stopped.join(r)), "{r}: the actors differ");

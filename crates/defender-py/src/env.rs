@@ -21,6 +21,7 @@ use crate::arrays::read_vec_f64;
 use crate::checks::{parse_cost, parse_mode, parse_name};
 use crate::episodes::episode_set_arg;
 use crate::select::{AutoChoice, choose_auto};
+use crate::step_cost::CostSource;
 use crate::turn::{Turn, Turns};
 use crate::{DefenderError, defender_err, env_err, guard};
 
@@ -45,6 +46,8 @@ struct PyEnv {
     check_finite: bool,
     /// Steps of the wrapped environment since its last reset (named in errors).
     episode_step: u64,
+    /// Where a step's cost comes from (`cost_key`).
+    cost: CostSource,
 }
 
 const RAISED: &str = "the wrapped Python environment raised";
@@ -168,9 +171,11 @@ impl Env for PyEnv {
             let terminated = tuple.get_item(2)?.is_truthy()?;
             let truncated = tuple.get_item(3)?.is_truthy()?;
             let v = self.read_obs(&obs, Method::Step)?;
+            let info = tuple.get_item(4)?;
+            let cost = self.cost.of_step(&info, terminated, &|| self.at_step(Method::Step))?;
             self.out_obs = Some(obs.unbind());
-            self.out_info = Some(tuple.get_item(4)?.unbind());
-            Ok(Step { obs: v, reward, cost: 0.0, terminated, truncated, info: StepInfo::default() })
+            self.out_info = Some(info.unbind());
+            Ok(Step { obs: v, reward, cost, terminated, truncated, info: StepInfo::default() })
         });
         result.map_err(|e| self.fail(e))
     }
@@ -272,9 +277,11 @@ fn take_error(state: &mut State, e: EnvError) -> PyErr {
 #[pymethods]
 impl Core {
     /// `env`: the Python environment; `obs_low`/`obs_high`/`act_low`/`act_high`: its Box bounds;
-    /// `dynamics`: a JSON object of `DynamicsConfig` fields; `filter`: one of `FilterOptions`.
+    /// `dynamics`: a JSON object of `DynamicsConfig` fields; `filter`: one of `FilterOptions`;
+    /// `cost_key`: the `info` key of a step's cost (None: the crash rule), `cost_key_required`:
+    /// whether a step without it raises (the user named the key).
     #[new]
-    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true, filter_json = None))]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true, filter_json = None, cost_key = Some("cost".to_string()), cost_key_required = false))]
     #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
     fn new(
         py: Python<'_>,
@@ -295,6 +302,8 @@ impl Core {
         scaling: Option<&str>,
         check_finite: bool,
         filter_json: Option<String>,
+        cost_key: Option<String>,
+        cost_key_required: bool,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -334,6 +343,7 @@ impl Core {
                 error: None,
                 check_finite,
                 episode_step: 0,
+                cost: CostSource::new(cost_key, cost_key_required),
             };
             // strategy="auto": chosen here, from these demonstrations, as `defender train
             // --strategy auto` chooses (docs/decisions.md).
@@ -479,6 +489,8 @@ impl Core {
                 };
                 (obs, info)
             };
+            // The cost used (0 on a filtered step: the action never reached the environment).
+            info.set_item(intern!(py, "cost"), step.cost)?;
             info.set_item(intern!(py, "defender_filtered"), filtered)?;
             if let Some(d) = decision {
                 info.set_item(intern!(py, "defender_safe_cost"), d.safe_cost)?;

@@ -24,6 +24,7 @@ mod env;
 mod episodes;
 mod interrupt;
 mod select;
+mod step_cost;
 mod turn;
 
 // Named as the package exports them (`defender_rl.DefenderError`), not as the extension module

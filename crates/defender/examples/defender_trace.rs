@@ -54,6 +54,8 @@ struct StepOut {
     unsafe_cost: f64,
     obs: Vec<f64>,
     reward: f64,
+    /// The step's safety cost (defender-mujoco's crash rule; 0 on a filtered step).
+    cost: f64,
     terminated: bool,
     truncated: bool,
 }
@@ -146,6 +148,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 unsafe_cost: d.unsafe_cost,
                 obs: step.obs,
                 reward: step.reward,
+                cost: step.cost,
                 terminated: step.terminated,
                 truncated: step.truncated,
             });

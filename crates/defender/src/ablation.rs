@@ -18,7 +18,7 @@ use crate::error::{DefenderError, Result};
 use crate::filter::Decision;
 use crate::method::{Aggregation, Method};
 use crate::score::AblationRow;
-use crate::scoring::Scoring;
+use crate::scoring::{EpisodeReplay, Scoring};
 use crate::strategy::{Mode, Strategy};
 use crate::window::Window;
 
@@ -32,17 +32,6 @@ pub struct Ablation {
     unsafe_windows: Vec<Window>,
     /// Per strategy, the index of its safe / unsafe value in the per-step value tables.
     pairs: Vec<(usize, usize)>,
-}
-
-/// Per recorded episode, the first filtered step of every strategy (in the ablation's order).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EpisodeReplay {
-    /// Number of transitions `T_e` (decisions replayed).
-    pub len: usize,
-    /// The recorded episode crashed.
-    pub crashed: bool,
-    /// Per strategy, `k`: the first filtered step, if any.
-    pub first_filtered: Vec<Option<usize>>,
 }
 
 /// A demonstration of the ablation's own set left out of its group (leave-one-out,

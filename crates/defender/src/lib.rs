@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 mod ablation;
+mod ablation_csv;
 mod adaptive_filter;
 mod atomic;
 pub mod authors_collection;
@@ -28,7 +29,8 @@ pub mod synthetic;
 mod violation;
 mod window;
 
-pub use ablation::{Ablation, EpisodeReplay, Progress, ablate, ablate_scored};
+pub use ablation::{Ablation, Progress, ablate, ablate_scored};
+pub use ablation_csv::{CSV_HEADER, csv_scoring, read_csv, write_csv, write_csv_scored};
 pub use adaptive_filter::AdaptiveFilter;
 pub use atomic::write_atomic;
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
@@ -43,11 +45,8 @@ pub use filter::{Decision, Filter};
 pub use filter_options::{Budget, FilterOptions, MAX_ADAPTIVE_MARGIN, OwnEpisodes};
 pub use method::{Aggregation, Method};
 pub use recorder::EpisodeRecorder;
-pub use score::{
-    AblationRow, CSV_HEADER, StrategyTally, csv_scoring, rank, rank_tasks, read_csv, write_csv,
-    write_csv_scored,
-};
-pub use scoring::{AuthorsTally, Scoring};
+pub use score::{AblationRow, StrategyTally, rank, rank_tasks};
+pub use scoring::{AuthorsTally, EpisodeReplay, Scoring};
 pub use screen::{ScreenTally, screen};
 pub use strategy::{Mode, Strategy};
 pub use violation::{EPISODE_COST_LIMIT_KEY, UnsafeRule, ViolationTracker};

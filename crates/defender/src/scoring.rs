@@ -8,9 +8,20 @@
 //! over the crashed episodes)`, or `mean(p)` alone when none is shorter than the horizon. Which
 //! episodes are scored (their first 500) is the caller's choice.
 
-use crate::ablation::EpisodeReplay;
 use crate::score::{AblationRow, StrategyTally};
 use crate::strategy::{Mode, Strategy};
+
+/// Per recorded episode, the first filtered step of every strategy (in the ablation's order): what
+/// the ablation (crate::ablation) replays and a scoring scores.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EpisodeReplay {
+    /// Number of transitions `T_e` (decisions replayed).
+    pub len: usize,
+    /// The recorded episode crashed.
+    pub crashed: bool,
+    /// Per strategy, `k`: the first filtered step, if any.
+    pub first_filtered: Vec<Option<usize>>,
+}
 
 /// Which score an ablation computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -312,7 +312,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
             note!("recorded {} training episodes into {}", recorder.len(), path.display());
         }
     }
-    print_summary(&args.out, &summary, matches!(end, RunEnd::Stopped));
+    print_summary(&args.out, &summary, config.safety.as_ref(), matches!(end, RunEnd::Stopped));
     match (&end, stop.exit_code()) {
         (RunEnd::Stopped, Some(code)) => Err(Stopped { code }.into()),
         _ => Ok(()),
@@ -338,9 +338,16 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
     Ok(config)
 }
 
-fn print_summary(out: &Path, s: &Summary, stopped: bool) {
+/// `safety`: the run's `[safety]` baseline, which `summary.json` does not record, so that a
+/// penalty, Lagrangian or recovery run is not called bare.
+fn print_summary(out: &Path, s: &Summary, safety: Option<&defender_rl::SafetyConfig>, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
-    let what = s.strategy.map_or("bare".to_string(), |st| format!("DEFENDER {st}"));
+    let what = match (s.strategy, safety.map(defender_rl::SafetyConfig::method)) {
+        (None, None) => "bare".to_string(),
+        (None, Some(method)) => method.to_string(),
+        (Some(st), None) => format!("DEFENDER {st}"),
+        (Some(st), Some(method)) => format!("DEFENDER {st} + {method}"),
+    };
     say!(
         "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
