@@ -246,6 +246,14 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             are. ``None``: no key, the crash rule on every step. A cost that is not a number
             raises ``TypeError``; a negative or non-finite one raises :class:`DefenderError`,
             naming the key.
+        episode_cost_limit: on a task whose safety is a per-step cost (Safety-Gymnasium's, limit
+            25), an episode is unsafe once its summed cost passes this limit: the agent's own
+            episodes join the unsafe group cut at that step, and the safe group when they reach
+            the horizon within it (docs/SPEC.md, section 13). ``None`` (the default): the limit
+            the demonstrations were labelled by (their ``meta`` ``episode_cost_limit``, written by
+            ``defender demos collect`` on a cost task), else the crash rule. A limit that the
+            demonstrations were not labelled by raises :class:`DefenderError` naming
+            ``episode_cost_limit``.
 
     The constructor's arguments pickle (paths, ``EpisodeSet`` and numpy arrays), so
     ``SubprocVecEnv`` and ``gymnasium.vector.AsyncVectorEnv`` can build it in their workers.
@@ -275,12 +283,20 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         filter: Mapping[str, Any] | None = None,  # noqa: A002 (the [defender.filter] section's name)
         profile: str = "keeps-learning",
         cost_key: str | None = _DEFAULT_COST_KEY,
+        episode_cost_limit: float | None = None,
     ):
         if not isinstance(env, gym.Env):
             raise TypeError(f"DefenderWrapper wraps a gymnasium.Env, got {type(env).__name__}")
         cost_key_required = cost_key is not _DEFAULT_COST_KEY
         # Recorded only when given, so that a rebuilt wrapper keeps the default's leniency.
         given = {"cost_key": cost_key} if cost_key_required else {}
+        if episode_cost_limit is not None:
+            if isinstance(episode_cost_limit, (bool, np.bool_)) or not isinstance(
+                episode_cost_limit, (int, float, np.integer, np.floating)
+            ):
+                raise TypeError(f"episode_cost_limit must be a number or None, got {episode_cost_limit!r}")
+            episode_cost_limit = float(episode_cost_limit)
+            given["episode_cost_limit"] = episode_cost_limit
         gym.utils.RecordConstructorArgs.__init__(
             self, demos=demos, strategy=strategy, mode=mode, num_demos=num_demos, r_task=r_task,
             dynamics=dynamics, seed=seed, scaling=scaling, check_finite=check_finite, filter=filter,
@@ -357,6 +373,7 @@ class DefenderWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             filter_json,
             None if cost_key is None else str(cost_key),
             cost_key_required,
+            episode_cost_limit,
         )
         if announce:
             _say(f"DefenderWrapper: strategy='auto' chose {self.strategy} in {time.monotonic() - started:.0f} s")

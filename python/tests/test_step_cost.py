@@ -138,3 +138,39 @@ def test_numpy_and_bool_costs_are_numbers(drift_set):
 def test_cost_key_must_be_a_string_or_none(drift_set):
     with pytest.raises(TypeError, match="cost_key must be a string"):
         DefenderWrapper(DriftEnv(), drift_set, cost_key=3)
+
+
+def cost_labelled(limit: float) -> "defender_rl.EpisodeSet":
+    """The drift demonstrations, labelled (in their meta) as cut by an episode cost limit."""
+    import defender_rl
+    from conftest import drift_demos
+
+    d = drift_demos()
+    episodes = [(d.episode(i)["obs"], d.episode(i)["act"], d.episode(i)["rew"], bool(d.episode(i)["crashed"]))
+                for i in range(len(d))]
+    return defender_rl.EpisodeSet.from_episodes(
+        episodes, env_id="DefenderTest/Drift-v0", meta={"episode_cost_limit": limit})
+
+
+def test_own_episodes_join_by_the_demonstrations_episode_cost_limit():
+    # Every step costs 1: an episode passes the limit of 2 on its third step, long before it
+    # crashes (|x| > 1 under full reverse), so it joins the unsafe group by its cost.
+    env = DefenderWrapper(CostInInfo(DriftEnv(), costs=lambda t: 1.0), cost_labelled(2.0),
+                          "MinBoth/MinBoth", seed=0, profile="spec", filter={"own_episodes": {"keep": 5}})
+    infos = episode(env, REVERSE, seed=1)
+    assert len(infos) > 3 and infos[-1]["defender_outcome"] == "crashed"
+    assert (env.filter_state["own_safe"], env.filter_state["own_unsafe"]) == (0, 1)
+    # A cost that stays within the limit: the crash alone does not make it unsafe on a cost task.
+    env = DefenderWrapper(CostInInfo(DriftEnv(), costs=lambda t: 0.0), cost_labelled(2.0),
+                          "MinBoth/MinBoth", seed=0, profile="spec", filter={"own_episodes": {"keep": 5}})
+    episode(env, REVERSE, seed=1)
+    assert (env.filter_state["own_safe"], env.filter_state["own_unsafe"]) == (0, 0)
+
+
+def test_a_limit_the_demonstrations_were_not_labelled_by_raises_naming_it(drift_set):
+    with pytest.raises(DefenderError, match="episode_cost_limit"):
+        DefenderWrapper(DriftEnv(), drift_set, "MinBoth/MinBoth", episode_cost_limit=25.0)
+    with pytest.raises(DefenderError, match="episode_cost_limit"):
+        DefenderWrapper(DriftEnv(), cost_labelled(2.0), "MinBoth/MinBoth", episode_cost_limit=3.0)
+    with pytest.raises(TypeError, match="episode_cost_limit"):
+        DefenderWrapper(DriftEnv(), cost_labelled(2.0), "MinBoth/MinBoth", episode_cost_limit="25")

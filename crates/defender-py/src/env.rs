@@ -281,7 +281,7 @@ impl Core {
     /// `cost_key`: the `info` key of a step's cost (None: the crash rule), `cost_key_required`:
     /// whether a step without it raises (the user named the key).
     #[new]
-    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true, filter_json = None, cost_key = Some("cost".to_string()), cost_key_required = false))]
+    #[pyo3(signature = (env, env_id, obs_low, obs_high, obs_dtype, act_low, act_high, demos, strategy, mode, num_demos, r_task, dynamics_json, seed, scaling, check_finite = true, filter_json = None, cost_key = Some("cost".to_string()), cost_key_required = false, episode_cost_limit = None))]
     #[allow(clippy::too_many_arguments)] // one Python constructor, all keyword-checked in Python
     fn new(
         py: Python<'_>,
@@ -304,6 +304,7 @@ impl Core {
         filter_json: Option<String>,
         cost_key: Option<String>,
         cost_key_required: bool,
+        episode_cost_limit: Option<f64>,
     ) -> PyResult<Self> {
         guard("DefenderWrapper()", || {
             let observation_space = box_space(py, obs_low, obs_high, "observation_space")?;
@@ -367,7 +368,17 @@ impl Core {
                 r_task,
                 cost,
                 filter,
-                episode_cost_limit: None,
+                // docs/SPEC.md section 13: the demonstrations' own limit unless one is given
+                // (then they must have been labelled by it).
+                episode_cost_limit: match episode_cost_limit {
+                    Some(l) => Some(l),
+                    None => match defender::UnsafeRule::of_set(&demos)
+                        .map_err(|e| DefenderError::new_err(format!("demos: {e}")))?
+                    {
+                        defender::UnsafeRule::CostAbove(l) => Some(l),
+                        defender::UnsafeRule::Crash => None,
+                    },
+                },
                 dynamics,
             };
             let mut rng = match seed {
