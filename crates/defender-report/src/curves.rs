@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::figure::{FONT_NAME, Figure, color, legend, range, steps_label};
+use crate::figure::{Axes, Figure, axes, color, legend, range, steps_label};
 use crate::stats::{interpolate, linspace};
 
 /// A curve: mean over seeds on a step grid, with the min and max over seeds.
@@ -97,7 +97,6 @@ where
     DB::ErrorType: 'static,
 {
     let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
-    root.fill(&WHITE).map_err(e)?;
     let fold = |f: fn(&Band) -> &Vec<f64>, init: f64, op: fn(f64, f64) -> f64| {
         chart.bands.iter().flat_map(|b| f(b).iter().copied()).fold(init, op)
     };
@@ -126,23 +125,19 @@ where
         span if span >= 2.0 => 1,
         _ => 2,
     };
-    let mut plot = ChartBuilder::on(root)
-        .caption(&chart.title, (FONT_NAME, 22))
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(75)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(e)?;
-    plot.configure_mesh()
-        .x_desc("environment steps")
-        .y_desc(chart.y_label.as_str())
-        .x_label_formatter(&|x| steps_label(*x))
-        .y_label_formatter(&|y| format!("{y:.y_decimals$}"))
-        .label_style((FONT_NAME, 14))
-        .axis_desc_style((FONT_NAME, 16))
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(e)?;
+    let y_ticks = |y: &f64| format!("{y:.y_decimals$}");
+    let mut plot = axes(
+        root,
+        &Axes {
+            title: &chart.title,
+            x: x0..x1,
+            y: y0..y1,
+            x_desc: "environment steps",
+            y_desc: &chart.y_label,
+            x_ticks: &|x| steps_label(*x),
+            y_ticks: &y_ticks,
+        },
+    )?;
     for band in &chart.bands {
         let c = color(band.color);
         if band.xs.len() > 1 {
