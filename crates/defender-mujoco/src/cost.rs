@@ -1,4 +1,11 @@
-//! [`Cost`]: what makes a step of a task cost 1 (the substrate's `Step::cost`).
+//! [`Cost`]: what makes a step of a task cost 1 (the substrate's `Step::cost`), and the episode
+//! cost limit the field holds a task's runs to.
+
+/// The episode cost limit of Safety-Gymnasium's velocity tasks: the `cost_limit: 25` of
+/// OmniSafe's benchmark configurations (SACLag, PPOLag and the others on `Safety*Velocity-v1`),
+/// the number the field's published costs are read against. An episode whose summed cost exceeds
+/// it broke the constraint.
+pub const EPISODE_COST_LIMIT: f64 = 25.0;
 
 /// The per-step cost rule of a task. A cost is 0 or 1 for every rule.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,6 +43,16 @@ impl Cost {
         match self {
             Cost::Crash | Cost::Velocity { .. } => 1.0,
             Cost::None => 0.0,
+        }
+    }
+
+    /// The episode cost limit runs of a task with this rule are held to: [`EPISODE_COST_LIMIT`]
+    /// for the velocity rule; `None` for a crash task (its cost is at most 1 per episode, so the
+    /// field counts crashes instead) and for a task without cost.
+    pub fn episode_limit(self) -> Option<f64> {
+        match self {
+            Cost::Velocity { .. } => Some(EPISODE_COST_LIMIT),
+            Cost::Crash | Cost::None => None,
         }
     }
 
@@ -81,5 +98,12 @@ mod tests {
         assert_eq!(Cost::None.of_step(true, 100.0), 0.0);
         assert_eq!(Cost::None.of_unstable_step(), 0.0);
         assert_eq!((Cost::Crash.to_string(), Cost::None.to_string()), ("crash".into(), "none".into()));
+    }
+
+    #[test]
+    fn only_the_velocity_rule_has_an_episode_limit() {
+        assert_eq!(Cost::Velocity { threshold: 0.7402 }.episode_limit(), Some(25.0));
+        assert_eq!(Cost::Crash.episode_limit(), None);
+        assert_eq!(Cost::None.episode_limit(), None);
     }
 }

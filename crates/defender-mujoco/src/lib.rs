@@ -6,7 +6,7 @@ mod logging;
 mod replay;
 mod task;
 
-pub use cost::Cost;
+pub use cost::{Cost, EPISODE_COST_LIMIT};
 pub use defender_rl::{EnvError, Result};
 pub use env::{MujocoEnv, make};
 pub use replay::{Rollout, replay};
