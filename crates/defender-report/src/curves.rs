@@ -2,6 +2,7 @@
 //! min-max band ([`Band`]), and [`band`], which puts the seeds' curves on one step grid.
 
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use crate::figure::{Axes, Figure, axes, color, legend, range, steps_label};
@@ -32,6 +33,9 @@ pub(crate) struct Chart {
     pub(crate) x_from: Option<f64>,
     pub(crate) markers: bool,
     pub(crate) bands: Vec<Band>,
+    /// A level the curves are read against (a task's episode cost limit), drawn as a dashed
+    /// horizontal line with this legend label; the y axis reaches it.
+    pub(crate) limit: Option<(f64, String)>,
 }
 
 /// The step grid the seeds' curves are put on.
@@ -107,9 +111,10 @@ where
         0.0,
     );
     // Head room above the curves for the legend.
+    let level = chart.limit.as_ref().map(|(y, _)| *y);
     let (mut y0, y1) = range(
-        fold(|b| &b.lo, f64::INFINITY, f64::min),
-        fold(|b| &b.hi, f64::NEG_INFINITY, f64::max),
+        fold(|b| &b.lo, level.unwrap_or(f64::INFINITY), f64::min),
+        fold(|b| &b.hi, level.unwrap_or(f64::NEG_INFINITY), f64::max),
         0.05,
         0.35,
     );
@@ -167,6 +172,14 @@ where
         if chart.markers || points.len() == 1 {
             plot.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(e)?;
         }
+    }
+    if let Some((y, label)) = &chart.limit {
+        let style = RGBColor(90, 90, 90).stroke_width(2);
+        let line = DashedPathElement::new(vec![(x0, *y), (x1, *y)], 10, 6, style);
+        plot.draw_series(std::iter::once(line))
+            .map_err(e)?
+            .label(label.as_str())
+            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], 6, 4, style));
     }
     legend(&mut plot, SeriesLabelPosition::UpperLeft)
 }

@@ -30,6 +30,16 @@ wall-clock time / that of the bare run with the same task, algorithm, budget and
 averaged over seeds.
 ";
 
+/// What the cost columns mean, printed under the legend when a table has them.
+const COST_LEGEND: &str = "
+Cost columns (tasks with a per-step cost and an episode cost limit L: Safety-Gymnasium's velocity \
+tasks, L = 25 as OmniSafe's benchmarks): Cost rate: total cost of the training episodes / \
+environment steps of training, a filtered step not counting (it never reaches the environment and \
+costs 0). Eval cost (last-10): the evaluation episodes' mean cost, averaged over the run's last 10 \
+evaluations. % episodes cost > L: training episodes whose summed cost exceeds L / all training \
+episodes x 100. Each over seeds as the columns above.
+";
+
 /// The Markdown report of `table`.
 pub(crate) fn markdown(table: &Table) -> String {
     let demos = table.varies_num_demos();
@@ -56,6 +66,17 @@ pub(crate) fn markdown(table: &Table) -> String {
                 "% Time",
                 "Seeds",
             ]);
+            // A task with a cost limit gets the cost columns after the crash counts; the tables
+            // of the crash tasks keep theirs.
+            let limit = table
+                .rows_for(mode)
+                .filter(|r| r.env == env && r.budget == budget)
+                .find_map(|r| r.costs.map(|c| c.limit));
+            let over = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
+            if limit.is_some() {
+                let at = header.len() - 3;
+                header.splice(at..at, ["Cost rate", "Eval cost (last-10)", over.as_str()]);
+            }
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
             for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
                 let (safe, unsafe_) = row
@@ -73,6 +94,16 @@ pub(crate) fn markdown(table: &Table) -> String {
                     pm_ci(&row.crash_pct, 1),
                     pm_ci(&row.crashes, 0),
                     pm_ci(&row.crashes_per_1k, 2),
+                ]);
+                if limit.is_some() {
+                    let costs = row.costs.as_ref();
+                    line.extend([
+                        pm_ci_or_dash(costs.map(|c| &c.cost_rate), 3),
+                        pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
+                        pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
+                    ]);
+                }
+                line.extend([
                     pm_ci_or_dash(row.standing_pct.as_ref(), 0),
                     time(row),
                     row.seeds.len().to_string(),
@@ -83,6 +114,9 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out.push_str(LEGEND);
+    if table.rows.iter().any(|r| r.costs.is_some()) {
+        out.push_str(COST_LEGEND);
+    }
     if !table.notes.is_empty() {
         out.push_str("\nNotes:\n");
         for note in &table.notes {
