@@ -232,7 +232,10 @@ fn a_velocity_task_gets_the_cost_measures_from_the_registry() {
     };
     let (header, row) = (cells("| Algorithm"), cells("| SAC"));
     assert_eq!(header[9..12], ["Cost rate", "Eval cost (last-10)", "% episodes cost > 25"], "{md}");
-    assert_eq!(row[9..12], ["0.150 ± 0.0 [0.150, 0.150]", "4.0 ± 0.0 [4.0, 4.0]", "50.0 ± 0.0 [50.0, 50.0]"]);
+    assert_eq!(
+        row[9..12],
+        ["0.150 ± 0.000 [0.150, 0.150]", "4.0 ± 0.0 [4.0, 4.0]", "50.0 ± 0.0 [50.0, 50.0]"]
+    );
     for kind in ["cost", "eval_cost"] {
         assert!(plots.join(format!("SafetyHopperVelocity-v1_sac_{kind}.svg")).is_file(), "{kind}");
         assert!(!plots.join(format!("Hopper-v5_sac_{kind}.svg")).exists(), "{kind}");

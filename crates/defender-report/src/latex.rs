@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{mode_title, pm, sections, time};
+use crate::cells::{mode_title, pm, pm_to, sections, time};
 use crate::run::DefenderSettings;
 use crate::stats::Estimate;
 use crate::table::{Row, Table};
@@ -168,15 +168,16 @@ pub(crate) fn latex(table: &Table) -> String {
 /// The cost cells of a row of a task with a cost limit, each starting with ` & `; `-` for a
 /// value the row does not have.
 fn cost_cells(row: &Row) -> String {
-    let cell = |e: Option<&Estimate>, decimals: usize| {
-        e.map_or_else(|| "-".to_string(), |e| pm(&e.stat, decimals, "$\\pm$"))
+    // The cost rate (~0.05) keeps its std to the mean's three decimals ([`pm_to`]).
+    let cell = |e: Option<&Estimate>, decimals: usize, std_decimals: usize| {
+        e.map_or_else(|| "-".to_string(), |e| pm_to(&e.stat, decimals, std_decimals, "$\\pm$"))
     };
     let costs = row.costs.as_ref();
     format!(
         " & {} & {} & {}",
-        cell(costs.map(|c| &c.cost_rate), 3),
-        cell(costs.and_then(|c| c.eval_cost.as_ref()), 1),
-        cell(costs.map(|c| &c.over_limit_pct), 1)
+        cell(costs.map(|c| &c.cost_rate), 3, 3),
+        cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
+        cell(costs.map(|c| &c.over_limit_pct), 1, 1)
     )
 }
 

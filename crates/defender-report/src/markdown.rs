@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, sections, time};
+use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, pm_ci_to, sections, time};
 use crate::run::DefenderSettings;
 use crate::table::Table;
 
@@ -98,7 +98,7 @@ pub(crate) fn markdown(table: &Table) -> String {
                 if limit.is_some() {
                     let costs = row.costs.as_ref();
                     line.extend([
-                        pm_ci_or_dash(costs.map(|c| &c.cost_rate), 3),
+                        costs.map_or_else(|| "-".into(), |c| pm_ci_to(&c.cost_rate, 3, 3)),
                         pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
                         pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
                     ]);
