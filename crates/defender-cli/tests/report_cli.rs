@@ -242,6 +242,28 @@ fn a_velocity_task_gets_the_cost_measures_from_the_registry() {
     }
 }
 
+/// `defender train` records its task's episode cost limit in summary.json (a velocity task's 25,
+/// none for a crash task), and the report reads a real run of it with the cost columns.
+#[test]
+fn train_records_the_cost_limit_and_the_report_reads_the_run() {
+    let root = scratch("train_limit");
+    let summary = |dir: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    let mut limits = Vec::new();
+    for env in ["SafetyHopperVelocity-v1", "Hopper-v5"] {
+        let dir = root.join(env);
+        // 300 random steps (learning starts later): a run in well under a second.
+        let out = defender(&["train", "--env", env, "--steps", "300", "--out", dir.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        limits.push(summary(&dir).get("episode_cost_limit").cloned());
+    }
+    assert_eq!(limits, [Some(serde_json::json!(25.0)), None]);
+    let out = defender(&["report", root.join("SafetyHopperVelocity-v1").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("% episodes cost > 25"), "{}", text(&out.stdout));
+}
+
 #[test]
 fn broken_run_directories_fail_with_the_file_named() {
     let root = scratch("broken");
