@@ -202,6 +202,68 @@ fn the_report_knows_every_tasks_horizon() {
     }
 }
 
+/// The velocity tasks' episode cost limit reaches the report from the task registry: their
+/// tables get the cost columns and their plots the cost curves; a crash task's do not.
+#[test]
+fn a_velocity_task_gets_the_cost_measures_from_the_registry() {
+    let root = scratch("costs");
+    let runs = root.join("runs");
+    // Two 100-step episodes costing 30 and 0 (one of two over 25): cost rate 30 / 200.
+    for seed in 0..2 {
+        RunSpec::new("sac", seed, None)
+            .env("SafetyHopperVelocity-v1")
+            .outcomes(2, 0, 0)
+            .costs(&[30.0, 0.0])
+            .eval_costs(&[3.0, 5.0])
+            .write(&runs);
+    }
+    RunSpec::new("sac", 0, None).outcomes(2, 1, 0).write(&runs);
+    let plots = root.join("plots");
+    let out = defender(&["report", runs.to_str().unwrap(), "--plots", plots.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let md = text(&out.stdout);
+    let tables: Vec<&str> = md.split("\n### ").skip(1).collect();
+    assert_eq!(tables.len(), 2, "{md}");
+    assert!(tables[0].starts_with("Hopper-v5") && !tables[0].contains("Cost rate"), "{md}");
+    assert!(tables[1].starts_with("SafetyHopperVelocity-v1"), "{md}");
+    let cells = |prefix: &str| -> Vec<String> {
+        let line = tables[1].lines().find(|l| l.starts_with(prefix)).unwrap();
+        line.split('|').map(str::trim).filter(|c| !c.is_empty()).map(String::from).collect()
+    };
+    let (header, row) = (cells("| Algorithm"), cells("| SAC"));
+    assert_eq!(header[9..12], ["Cost rate", "Eval cost (last-10)", "% episodes cost > 25"], "{md}");
+    assert_eq!(
+        row[9..12],
+        ["0.150 ± 0.000 [0.150, 0.150]", "4.0 ± 0.0 [4.0, 4.0]", "50.0 ± 0.0 [50.0, 50.0]"]
+    );
+    for kind in ["cost", "eval_cost"] {
+        assert!(plots.join(format!("SafetyHopperVelocity-v1_sac_{kind}.svg")).is_file(), "{kind}");
+        assert!(!plots.join(format!("Hopper-v5_sac_{kind}.svg")).exists(), "{kind}");
+    }
+}
+
+/// `defender train` records its task's episode cost limit in summary.json (a velocity task's 25,
+/// none for a crash task), and the report reads a real run of it with the cost columns.
+#[test]
+fn train_records_the_cost_limit_and_the_report_reads_the_run() {
+    let root = scratch("train_limit");
+    let summary = |dir: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    let mut limits = Vec::new();
+    for env in ["SafetyHopperVelocity-v1", "Hopper-v5"] {
+        let dir = root.join(env);
+        // 300 random steps (learning starts later): a run in well under a second.
+        let out = defender(&["train", "--env", env, "--steps", "300", "--out", dir.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        limits.push(summary(&dir).get("episode_cost_limit").cloned());
+    }
+    assert_eq!(limits, [Some(serde_json::json!(25.0)), None]);
+    let out = defender(&["report", root.join("SafetyHopperVelocity-v1").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("% episodes cost > 25"), "{}", text(&out.stdout));
+}
+
 #[test]
 fn broken_run_directories_fail_with_the_file_named() {
     let root = scratch("broken");

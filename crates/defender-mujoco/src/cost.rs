@@ -1,7 +1,10 @@
-//! [`Cost`]: what makes a step of a task cost 1 (the substrate's `Step::cost`).
+//! [`Cost`]: what makes a step of a task cost 1 (the substrate's `Step::cost`), and the episode
+//! cost limit the field holds a task's runs to.
 
-/// Safety-Gymnasium's and OmniSafe's limit on an episode's cost (`cost_limit: 25.0` in OmniSafe's
-/// configurations): the benchmark's convention for the velocity tasks.
+/// The episode cost limit of Safety-Gymnasium's velocity tasks: the `cost_limit: 25` of
+/// OmniSafe's benchmark configurations (SACLag, PPOLag and the others on `Safety*Velocity-v1`),
+/// the number the field's published costs are read against. An episode whose summed cost exceeds
+/// it broke the constraint.
 pub const EPISODE_COST_LIMIT: f64 = 25.0;
 
 /// The per-step cost rule of a task. A cost is 0 or 1 for every rule.
@@ -43,8 +46,9 @@ impl Cost {
         }
     }
 
-    /// The episode cost a run should keep under: [`EPISODE_COST_LIMIT`] for a velocity rule;
-    /// `None` for a crash task (any crash is a violation) and for a task without cost.
+    /// The episode cost limit runs of a task with this rule are held to: [`EPISODE_COST_LIMIT`]
+    /// for the velocity rule; `None` for a crash task (its cost is at most 1 per episode, so the
+    /// field counts crashes instead) and for a task without cost.
     pub fn episode_limit(self) -> Option<f64> {
         match self {
             Cost::Velocity { .. } => Some(EPISODE_COST_LIMIT),
@@ -85,8 +89,6 @@ mod tests {
         assert_eq!(rule.of_step(true, 5.0), 1.0);
         assert_eq!(rule.of_step(false, -5.0), 0.0, "signed velocity: running backwards is free");
         assert_eq!(rule.to_string(), "velocity > 0.7402");
-        assert_eq!(rule.episode_limit(), Some(25.0));
-        assert_eq!((Cost::Crash.episode_limit(), Cost::None.episode_limit()), (None, None));
     }
 
     #[test]
@@ -96,5 +98,12 @@ mod tests {
         assert_eq!(Cost::None.of_step(true, 100.0), 0.0);
         assert_eq!(Cost::None.of_unstable_step(), 0.0);
         assert_eq!((Cost::Crash.to_string(), Cost::None.to_string()), ("crash".into(), "none".into()));
+    }
+
+    #[test]
+    fn only_the_velocity_rule_has_an_episode_limit() {
+        assert_eq!(Cost::Velocity { threshold: 0.7402 }.episode_limit(), Some(25.0));
+        assert_eq!(Cost::Crash.episode_limit(), None);
+        assert_eq!(Cost::None.episode_limit(), None);
     }
 }

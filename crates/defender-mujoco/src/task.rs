@@ -204,6 +204,12 @@ impl Task {
     pub fn cost(self) -> Cost {
         self.spec().cost
     }
+
+    /// The episode cost limit of the task's runs ([`Cost::episode_limit`]): 25 for the velocity
+    /// tasks, `None` for the crash tasks and the plain v4 tasks.
+    pub fn episode_cost_limit(self) -> Option<f64> {
+        self.cost().episode_limit()
+    }
 }
 
 #[cfg(test)]
@@ -239,7 +245,9 @@ mod tests {
                 (base.body(), Version::V4, base.xml_file())
             );
             assert!(matches!(s.cost, Cost::Velocity { .. }) && b.cost == Cost::None);
+            assert_eq!((safety.episode_cost_limit(), base.episode_cost_limit()), (Some(25.0), None));
         }
+        assert_eq!(Task::Hopper.episode_cost_limit(), None, "a crash task counts crashes");
         assert_eq!(Task::Walker2dV4.xml_file(), "walker2d.xml");
         assert_eq!(Task::Walker2d.xml_file(), "walker2d_v5.xml");
     }

@@ -20,15 +20,26 @@ pub(crate) fn number(value: f64, decimals: usize) -> String {
 
 /// `mean{sep}std`, the std with one decimal.
 pub(crate) fn pm(stat: &Stat, decimals: usize, sep: &str) -> String {
-    format!("{}{sep}{}", number(stat.mean, decimals), number(stat.std, 1))
+    pm_to(stat, decimals, 1, sep)
+}
+
+/// [`pm`] with the std to `std_decimals`: a value well below 1 (the cost rate, ~0.05) has a std
+/// that one decimal rounds to 0.
+pub(crate) fn pm_to(stat: &Stat, decimals: usize, std_decimals: usize, sep: &str) -> String {
+    format!("{}{sep}{}", number(stat.mean, decimals), number(stat.std, std_decimals))
 }
 
 /// `mean ± std [lo, hi]`: [`pm`] and the 95% bootstrap interval, its bounds with the mean's
 /// decimals.
 pub(crate) fn pm_ci(estimate: &Estimate, decimals: usize) -> String {
+    pm_ci_to(estimate, decimals, 1)
+}
+
+/// [`pm_ci`] with the std to `std_decimals` ([`pm_to`]).
+pub(crate) fn pm_ci_to(estimate: &Estimate, decimals: usize, std_decimals: usize) -> String {
     format!(
         "{} [{}, {}]",
-        pm(&estimate.stat, decimals, " ± "),
+        pm_to(&estimate.stat, decimals, std_decimals, " ± "),
         number(estimate.ci.lo, decimals),
         number(estimate.ci.hi, decimals)
     )
@@ -83,5 +94,8 @@ mod tests {
         let e = Estimate { stat: s, ci: Interval { lo: 55.04, hi: 70.5 } };
         assert_eq!(pm_ci(&e, 1), "64.0 ± 6.0 [55.0, 70.5]");
         assert_eq!(pm_ci_or_dash(None, 1), "-");
+        let rate =
+            Estimate { stat: Stat { mean: 0.0524, std: 0.0131, n: 3 }, ci: Interval { lo: 0.04, hi: 0.07 } };
+        assert_eq!(pm_ci_to(&rate, 3, 3), "0.052 ± 0.013 [0.040, 0.070]");
     }
 }

@@ -7,7 +7,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::figure::{FONT_NAME, Figure, color, finish, range};
+use crate::figure::{Axes, Figure, axes, color, finish, range, whole};
 use crate::run::Run;
 
 /// One arm: its legend label, its colour in the curves, and its seeds' `(crashes, last-10 eval)`.
@@ -44,29 +44,23 @@ impl Figure for CrashesVsEval {
         DB::ErrorType: 'static,
     {
         let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
-        root.fill(&WHITE).map_err(e)?;
         let all = || self.arms.iter().flat_map(|a| a.seeds.iter().copied());
         let x_max = all().map(|p| p.0).fold(1.0, f64::max);
         let (y_lo, y_hi) =
             all().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.1), h.max(p.1)));
         let (y0, y1) = range(y_lo, y_hi, 0.05, 0.45);
-        let mut plot = ChartBuilder::on(&root)
-            .caption(&self.title, (FONT_NAME, 22))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(75)
-            .build_cartesian_2d(0.0..x_max * 1.05, y0..y1)
-            .map_err(e)?;
-        plot.configure_mesh()
-            .x_desc("crashes over the run (training episodes that crashed)")
-            .y_desc("mean of the last 10 evaluations")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .label_style((FONT_NAME, 14))
-            .axis_desc_style((FONT_NAME, 16))
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(e)?;
+        let mut plot = axes(
+            &root,
+            &Axes {
+                title: &self.title,
+                x: 0.0..x_max * 1.05,
+                y: y0..y1,
+                x_desc: "crashes over the run (training episodes that crashed)",
+                y_desc: "mean of the last 10 evaluations",
+                x_ticks: &whole,
+                y_ticks: &whole,
+            },
+        )?;
         for arm in &self.arms {
             let c = color(arm.color);
             plot.draw_series(arm.seeds.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(e)?;

@@ -9,7 +9,8 @@ use crate::table::Table;
 /// The CSV columns: mean and std (population, ddof = 0) over the row's `n_seeds` seeds;
 /// `_ci_lo`/`_ci_hi` bound the 95% percentile bootstrap interval of the mean (`crate::bootstrap`).
 /// Columns added after the first release go at the end, so that scripts reading by position
-/// keep working; an empty field is a value the row does not have.
+/// keep working; an empty field is a value the row does not have (the cost columns, from
+/// `episode_cost_limit` on, are empty for a task without an episode cost limit: the crash tasks).
 pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
 n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
@@ -17,7 +18,10 @@ acc_reward_ci_lo,acc_reward_ci_hi,best_episode_mean,best_episode_std,best_episod
 last10_eval_mean,last10_eval_std,last10_eval_ci_lo,last10_eval_ci_hi,crash_pct_ci_lo,crash_pct_ci_hi,\
 standing_pct_mean,standing_pct_std,standing_pct_ci_lo,standing_pct_ci_hi,\
 crashes_mean,crashes_std,crashes_ci_lo,crashes_ci_hi,\
-crashes_per_1k_env_steps_mean,crashes_per_1k_env_steps_std,crashes_per_1k_env_steps_ci_lo,crashes_per_1k_env_steps_ci_hi";
+crashes_per_1k_env_steps_mean,crashes_per_1k_env_steps_std,crashes_per_1k_env_steps_ci_lo,crashes_per_1k_env_steps_ci_hi,\
+episode_cost_limit,cost_rate_mean,cost_rate_std,cost_rate_ci_lo,cost_rate_ci_hi,\
+eval_cost_last10_mean,eval_cost_last10_std,eval_cost_last10_ci_lo,eval_cost_last10_ci_hi,\
+over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -77,6 +81,16 @@ pub(crate) fn csv(table: &Table) -> String {
         for e in [&row.crashes, &row.crashes_per_1k] {
             fields.extend(mean_std(Some(e)));
             fields.extend(interval(Some(e)));
+        }
+        let costs = row.costs.as_ref();
+        fields.push(costs.map(|c| c.limit.to_string()).unwrap_or_default());
+        for e in [
+            costs.map(|c| &c.cost_rate),
+            costs.and_then(|c| c.eval_cost.as_ref()),
+            costs.map(|c| &c.over_limit_pct),
+        ] {
+            fields.extend(mean_std(e));
+            fields.extend(interval(e));
         }
         let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
         out.push_str(&fields.join(","));

@@ -2,9 +2,10 @@
 //! min-max band ([`Band`]), and [`band`], which puts the seeds' curves on one step grid.
 
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
-use crate::figure::{FONT_NAME, Figure, color, legend, range, steps_label};
+use crate::figure::{Axes, Figure, axes, color, legend, range, steps_label};
 use crate::stats::{interpolate, linspace};
 
 /// A curve: mean over seeds on a step grid, with the min and max over seeds.
@@ -32,6 +33,9 @@ pub(crate) struct Chart {
     pub(crate) x_from: Option<f64>,
     pub(crate) markers: bool,
     pub(crate) bands: Vec<Band>,
+    /// A level the curves are read against (a task's episode cost limit), drawn as a dashed
+    /// horizontal line with this legend label; the y axis reaches it.
+    pub(crate) limit: Option<(f64, String)>,
 }
 
 /// The step grid the seeds' curves are put on.
@@ -97,7 +101,6 @@ where
     DB::ErrorType: 'static,
 {
     let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
-    root.fill(&WHITE).map_err(e)?;
     let fold = |f: fn(&Band) -> &Vec<f64>, init: f64, op: fn(f64, f64) -> f64| {
         chart.bands.iter().flat_map(|b| f(b).iter().copied()).fold(init, op)
     };
@@ -108,9 +111,10 @@ where
         0.0,
     );
     // Head room above the curves for the legend.
+    let level = chart.limit.as_ref().map(|(y, _)| *y);
     let (mut y0, y1) = range(
-        fold(|b| &b.lo, f64::INFINITY, f64::min),
-        fold(|b| &b.hi, f64::NEG_INFINITY, f64::max),
+        fold(|b| &b.lo, level.unwrap_or(f64::INFINITY), f64::min),
+        fold(|b| &b.hi, level.unwrap_or(f64::NEG_INFINITY), f64::max),
         0.05,
         0.35,
     );
@@ -126,23 +130,19 @@ where
         span if span >= 2.0 => 1,
         _ => 2,
     };
-    let mut plot = ChartBuilder::on(root)
-        .caption(&chart.title, (FONT_NAME, 22))
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(75)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(e)?;
-    plot.configure_mesh()
-        .x_desc("environment steps")
-        .y_desc(chart.y_label.as_str())
-        .x_label_formatter(&|x| steps_label(*x))
-        .y_label_formatter(&|y| format!("{y:.y_decimals$}"))
-        .label_style((FONT_NAME, 14))
-        .axis_desc_style((FONT_NAME, 16))
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(e)?;
+    let y_ticks = |y: &f64| format!("{y:.y_decimals$}");
+    let mut plot = axes(
+        root,
+        &Axes {
+            title: &chart.title,
+            x: x0..x1,
+            y: y0..y1,
+            x_desc: "environment steps",
+            y_desc: &chart.y_label,
+            x_ticks: &|x| steps_label(*x),
+            y_ticks: &y_ticks,
+        },
+    )?;
     for band in &chart.bands {
         let c = color(band.color);
         if band.xs.len() > 1 {
@@ -172,6 +172,14 @@ where
         if chart.markers || points.len() == 1 {
             plot.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(e)?;
         }
+    }
+    if let Some((y, label)) = &chart.limit {
+        let style = RGBColor(90, 90, 90).stroke_width(2);
+        let line = DashedPathElement::new(vec![(x0, *y), (x1, *y)], 10, 6, style);
+        plot.draw_series(std::iter::once(line))
+            .map_err(e)?
+            .label(label.as_str())
+            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], 6, 4, style));
     }
     legend(&mut plot, SeriesLabelPosition::UpperLeft)
 }

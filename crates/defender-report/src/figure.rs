@@ -1,5 +1,6 @@
-//! What every figure shares: the embedded font, the palette, the legend's style, the axis
-//! formats, and [`write_figure`], which draws a [`Figure`] as PNG and SVG. The figures themselves
+//! What every figure shares: the embedded font, the palette, the frame and axes ([`axes`]), the
+//! legend's style, the axis formats, and [`write_figure`], which draws a [`Figure`] as PNG and
+//! SVG. The figures themselves
 //! are the learning curves (`crate::curves`, drawn by `crate::plot`), the trade-off
 //! (`crate::tradeoff`) and the long-budget view (`crate::windows`); none of them imports another.
 
@@ -127,6 +128,55 @@ pub(crate) fn range(lo: f64, hi: f64, pad_below: f64, pad_above: f64) -> (f64, f
 
 /// The chart type of every figure: f64 on both axes.
 pub(crate) type Plot<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// What sets one figure's axes apart from another's: the title, the ranges, what each axis
+/// measures and how its ticks read. The rest of the frame is [`axes`]'s, the same for all.
+pub(crate) struct Axes<'f> {
+    pub(crate) title: &'f str,
+    pub(crate) x: std::ops::Range<f64>,
+    pub(crate) y: std::ops::Range<f64>,
+    pub(crate) x_desc: &'f str,
+    pub(crate) y_desc: &'f str,
+    pub(crate) x_ticks: &'f dyn Fn(&f64) -> String,
+    pub(crate) y_ticks: &'f dyn Fn(&f64) -> String,
+}
+
+/// Whole numbers on an axis (crashes, % Crash, returns).
+pub(crate) fn whole(v: &f64) -> String {
+    format!("{v:.0}")
+}
+
+/// Fills `root` white and draws the frame every figure shares on it: the title, the margins and
+/// label areas, both axes with their descriptions, and the light grid. Kept in one place so that
+/// the figures of a report look alike and a change of style is made once.
+pub(crate) fn axes<'a, DB: DrawingBackend + 'a>(
+    root: &'a DrawingArea<DB, Shift>,
+    axes: &Axes<'_>,
+) -> Result<Plot<'a, DB>, String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let mut plot = ChartBuilder::on(root)
+        .caption(axes.title, (FONT_NAME, 22))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(75)
+        .build_cartesian_2d(axes.x.clone(), axes.y.clone())
+        .map_err(e)?;
+    plot.configure_mesh()
+        .x_desc(axes.x_desc)
+        .y_desc(axes.y_desc)
+        .x_label_formatter(axes.x_ticks)
+        .y_label_formatter(axes.y_ticks)
+        .label_style((FONT_NAME, 14))
+        .axis_desc_style((FONT_NAME, 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    Ok(plot)
+}
 
 /// Draws the legend at `position`, in the style all figures share, and presents `root`.
 pub(crate) fn finish<'a, DB: DrawingBackend + 'a>(

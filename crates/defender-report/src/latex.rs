@@ -6,8 +6,9 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{mode_title, pm, sections, time};
+use crate::cells::{mode_title, pm, pm_to, sections, time};
 use crate::run::DefenderSettings;
+use crate::stats::Estimate;
 use crate::table::{Row, Table};
 
 fn tex_escape(text: &str) -> String {
@@ -31,6 +32,15 @@ fn tex_escape(text: &str) -> String {
 /// Crashes (over the run), % Time.
 const PER_TASK: usize = 5;
 
+/// Columns a task with an episode cost limit adds: Cost rate, Eval cost (last-10), % episodes
+/// over the limit.
+const PER_COST_TASK: usize = 3;
+
+/// The episode cost limit of the rows of task `env` at `budget`, `None` for a crash task.
+fn limit_of(rows: &[&Row], env: &str, budget: Budget) -> Option<f64> {
+    rows.iter().filter(|r| r.env == env && r.budget == budget).find_map(|r| r.costs.map(|c| c.limit))
+}
+
 /// The LaTeX report of `table`.
 pub(crate) fn latex(table: &Table) -> String {
     let demos = table.varies_num_demos();
@@ -50,29 +60,45 @@ pub(crate) fn latex(table: &Table) -> String {
                 tex_escape(env)
             }
         };
+        // A task with a cost limit has the cost columns too (before % Time).
+        let limits: Vec<Option<f64>> = columns.iter().map(|(e, b)| limit_of(&rows, e, *b)).collect();
+        let widths: Vec<usize> =
+            limits.iter().map(|l| PER_TASK + if l.is_some() { PER_COST_TASK } else { 0 }).collect();
+        let cost_caption = if limits.iter().any(Option::is_some) {
+            " Cost rate: total training cost / environment steps of training (filtered steps not \
+             counted); Eval cost (last-10): mean evaluation cost over the last 10 evaluations; \
+             \\% cost $>$ L: training episodes whose cost exceeds the episode cost limit L."
+        } else {
+            ""
+        };
         let _ = write!(
             out,
             "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
              (final eval): mean return of the final evaluation; Best episode: the best training-episode \
              return of a run (the paper's Acc Reward); \\% Crash: crashed / all training episodes; Crashes: crashed training \
-             episodes over the run; mean $\\pm$ std over seeds.}}\n\
+             episodes over the run; mean $\\pm$ std over seeds.{cost_caption}}}\n\
              \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
             tex_escape(mode_title(mode)),
             "l".repeat(labels),
-            "r".repeat(PER_TASK * columns.len())
+            "r".repeat(widths.iter().sum())
         );
         out.push_str(&" & ".repeat(labels - 1));
-        for (env, budget) in &columns {
-            let _ = write!(out, " & \\multicolumn{{{PER_TASK}}}{{c}}{{{}}}", column_title(env, *budget));
+        for ((env, budget), width) in columns.iter().zip(&widths) {
+            let _ = write!(out, " & \\multicolumn{{{width}}}{{c}}{{{}}}", column_title(env, *budget));
         }
         out.push_str(" \\\\\n");
-        for i in 0..columns.len() {
-            let first = labels + 1 + PER_TASK * i;
-            let _ = write!(out, "\\cmidrule(lr){{{first}-{}}} ", first + PER_TASK - 1);
+        let mut first = labels + 1;
+        for width in &widths {
+            let _ = write!(out, "\\cmidrule(lr){{{first}-{}}} ", first + width - 1);
+            first += width;
         }
         out.push_str(if demos { "\nSafe & Unsafe & Demos" } else { "\nSafe & Unsafe" });
-        for _ in &columns {
-            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time");
+        for limit in &limits {
+            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & Crashes");
+            if let Some(limit) = limit {
+                let _ = write!(out, " & Cost rate & Eval cost (last-10) & \\% cost $>$ {limit}");
+            }
+            out.push_str(" & \\% Time");
         }
         out.push_str(" \\\\\n");
         let algos: Vec<&str> =
@@ -102,7 +128,7 @@ pub(crate) fn latex(table: &Table) -> String {
                         }
                     }
                 }
-                for (env, budget) in &columns {
+                for (((env, budget), limit), width) in columns.iter().zip(&limits).zip(&widths) {
                     let cell = rows.iter().find(|r| {
                         r.algo == algo && r.env == *env && r.budget == *budget && r.filter.as_ref() == filter
                     });
@@ -110,21 +136,24 @@ pub(crate) fn latex(table: &Table) -> String {
                         Some(r) => {
                             let _ = write!(
                                 out,
-                                " & {} & {} & {} & {} & {}",
+                                " & {} & {} & {} & {}",
                                 pm(&r.acc_reward.stat, 0, "$\\pm$"),
                                 r.best_episode.map_or_else(|| "-".into(), |b| pm(&b.stat, 0, "$\\pm$")),
                                 pm(&r.crash_pct.stat, 0, "$\\pm$"),
                                 pm(&r.crashes.stat, 0, "$\\pm$"),
-                                time(r)
                             );
+                            if limit.is_some() {
+                                out.push_str(&cost_cells(r));
+                            }
+                            let _ = write!(out, " & {}", time(r));
                         }
-                        None => out.push_str(&" & -".repeat(PER_TASK)),
+                        None => out.push_str(&" & -".repeat(*width)),
                     }
                 }
                 out.push_str(" \\\\\n");
                 if filter.is_none() {
                     out.push_str("\\cmidrule(lr){1-");
-                    let _ = writeln!(out, "{}}}", labels + PER_TASK * columns.len());
+                    let _ = writeln!(out, "{}}}", labels + widths.iter().sum::<usize>());
                 }
             }
         }
@@ -136,7 +165,22 @@ pub(crate) fn latex(table: &Table) -> String {
     out
 }
 
-/// The CSV columns.
+/// The cost cells of a row of a task with a cost limit, each starting with ` & `; `-` for a
+/// value the row does not have.
+fn cost_cells(row: &Row) -> String {
+    // The cost rate (~0.05) keeps its std to the mean's three decimals ([`pm_to`]).
+    let cell = |e: Option<&Estimate>, decimals: usize, std_decimals: usize| {
+        e.map_or_else(|| "-".to_string(), |e| pm_to(&e.stat, decimals, std_decimals, "$\\pm$"))
+    };
+    let costs = row.costs.as_ref();
+    format!(
+        " & {} & {} & {}",
+        cell(costs.map(|c| &c.cost_rate), 3, 3),
+        cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
+        cell(costs.map(|c| &c.over_limit_pct), 1, 1)
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

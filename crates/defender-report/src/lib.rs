@@ -2,6 +2,7 @@
 
 mod bootstrap;
 mod cells;
+mod costs;
 mod crashes_vs_eval;
 mod csv;
 mod csv_out;
@@ -27,6 +28,7 @@ mod windows;
 pub use bootstrap::{
     Interval, LEVEL, RESAMPLES, SEED, bootstrap_ci, bootstrap_ci_with, percentile_ci, quantile,
 };
+pub use costs::{CostColumns, CostLimits};
 pub use csv_out::CSV_HEADER;
 pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
@@ -41,5 +43,5 @@ pub use run::{
 };
 pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};
 pub use status::{SkipKind, SkippedRun, lock_holder};
-pub use table::{Row, Table};
+pub use table::{Row, Table, TableOptions};
 pub use violations::Violations;

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, sections, time};
+use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, pm_ci_to, sections, time};
 use crate::run::DefenderSettings;
 use crate::table::Table;
 
@@ -28,6 +28,16 @@ mean: the seeds resampled with replacement 50,000 times, fixed seed; with 3 seed
 and rows whose intervals overlap are not told apart]. Seeds: runs in the row. % Time: \
 wall-clock time / that of the bare run with the same task, algorithm, budget and seed x 100, \
 averaged over seeds.
+";
+
+/// What the cost columns mean, printed under the legend when a table has them.
+const COST_LEGEND: &str = "
+Cost columns (tasks with a per-step cost and an episode cost limit L: Safety-Gymnasium's velocity \
+tasks, L = 25 as OmniSafe's benchmarks): Cost rate: total cost of the training episodes / \
+environment steps of training, a filtered step not counting (it never reaches the environment and \
+costs 0). Eval cost (last-10): the evaluation episodes' mean cost, averaged over the run's last 10 \
+evaluations. % episodes cost > L: training episodes whose summed cost exceeds L / all training \
+episodes x 100. Each over seeds as the columns above.
 ";
 
 /// The Markdown report of `table`.
@@ -56,6 +66,17 @@ pub(crate) fn markdown(table: &Table) -> String {
                 "% Time",
                 "Seeds",
             ]);
+            // A task with a cost limit gets the cost columns after the crash counts; the tables
+            // of the crash tasks keep theirs.
+            let limit = table
+                .rows_for(mode)
+                .filter(|r| r.env == env && r.budget == budget)
+                .find_map(|r| r.costs.map(|c| c.limit));
+            let over = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
+            if limit.is_some() {
+                let at = header.len() - 3;
+                header.splice(at..at, ["Cost rate", "Eval cost (last-10)", over.as_str()]);
+            }
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
             for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
                 let (safe, unsafe_) = row
@@ -73,6 +94,16 @@ pub(crate) fn markdown(table: &Table) -> String {
                     pm_ci(&row.crash_pct, 1),
                     pm_ci(&row.crashes, 0),
                     pm_ci(&row.crashes_per_1k, 2),
+                ]);
+                if limit.is_some() {
+                    let costs = row.costs.as_ref();
+                    line.extend([
+                        costs.map_or_else(|| "-".into(), |c| pm_ci_to(&c.cost_rate, 3, 3)),
+                        pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
+                        pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
+                    ]);
+                }
+                line.extend([
                     pm_ci_or_dash(row.standing_pct.as_ref(), 0),
                     time(row),
                     row.seeds.len().to_string(),
@@ -83,6 +114,9 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out.push_str(LEGEND);
+    if table.rows.iter().any(|r| r.costs.is_some()) {
+        out.push_str(COST_LEGEND);
+    }
     if !table.notes.is_empty() {
         out.push_str("\nNotes:\n");
         for note in &table.notes {

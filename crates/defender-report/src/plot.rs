@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use defender_rl::{Budget, Outcome};
 
+use crate::costs::CostLimits;
 use crate::curves::{Band, Chart, Grid, band};
 use crate::error::{Result, io_err};
 use crate::figure::{file_safe, register_font, steps_label, write_figure};
@@ -33,11 +34,21 @@ pub struct PlotOptions {
     /// The window, in environment steps, of the rolling crash rate (`*_windows`); `None`: a
     /// tenth of the steps the runs of the plot reach, to two significant digits.
     pub crash_window: Option<u64>,
+    /// The episode cost limit of each per-step cost task: its plots add the cost curves
+    /// ([`PlotKind::Cost`], [`PlotKind::EvalCost`]).
+    pub cost_limits: CostLimits,
 }
 
 impl Default for PlotOptions {
     fn default() -> Self {
-        Self { width: 960, height: 600, grid_points: 200, smoothing_episodes: 10, crash_window: None }
+        Self {
+            width: 960,
+            height: 600,
+            grid_points: 200,
+            smoothing_episodes: 10,
+            crash_window: None,
+            cost_limits: CostLimits::default(),
+        }
     }
 }
 
@@ -53,12 +64,24 @@ pub enum PlotKind {
     /// (d) Crashes so far vs environment steps (filtered steps not counted) (`*_crashes`): the
     /// field's cumulative count of violations.
     Crashes,
+    /// (e) Training cost so far vs environment steps (filtered steps not counted) (`*_cost`):
+    /// the cumulative cost, for a task with a cost limit only.
+    Cost,
+    /// (f) Evaluation mean cost (`eval.csv`'s `mean_cost`) vs steps, the episode cost limit
+    /// drawn across (`*_eval_cost`), for a task with a cost limit only.
+    EvalCost,
 }
 
 impl PlotKind {
     /// All kinds, in file order.
-    pub const ALL: [PlotKind; 4] =
-        [PlotKind::Return, PlotKind::CrashRate, PlotKind::Evaluation, PlotKind::Crashes];
+    pub const ALL: [PlotKind; 6] = [
+        PlotKind::Return,
+        PlotKind::CrashRate,
+        PlotKind::Evaluation,
+        PlotKind::Crashes,
+        PlotKind::Cost,
+        PlotKind::EvalCost,
+    ];
 
     /// The file-name suffix.
     pub fn suffix(self) -> &'static str {
@@ -67,7 +90,15 @@ impl PlotKind {
             PlotKind::CrashRate => "crash",
             PlotKind::Evaluation => "eval",
             PlotKind::Crashes => "crashes",
+            PlotKind::Cost => "cost",
+            PlotKind::EvalCost => "eval_cost",
         }
+    }
+
+    /// Whether the plot is drawn only for a task with an episode cost limit: a crash task's
+    /// cost is its crashes, which `*_crashes` already shows.
+    pub fn needs_cost_limit(self) -> bool {
+        matches!(self, PlotKind::Cost | PlotKind::EvalCost)
     }
 }
 
@@ -86,7 +117,10 @@ pub struct Plots {
 /// `{env}_{algo}_tradeoff` (% Crash against Acc Reward, one point per configuration), and
 /// `{env}_{algo}_windows` for reading long budgets (`crate::windows`: the crash rate over a
 /// rolling window of [`PlotOptions::crash_window`] steps beside the evaluation return, twice as
-/// wide), each as `.png` and `.svg`.
+/// wide), each as `.png` and `.svg`. A task with an episode cost limit
+/// ([`PlotOptions::cost_limits`], or recorded in its runs' `summary.json`) also gets
+/// `{env}_{algo}_cost` (the training cost so far against environment steps) and
+/// `{env}_{algo}_eval_cost` (the evaluations' mean cost, the limit drawn across).
 ///
 /// Each seed's curve is interpolated linearly onto a grid over the steps all seeds reached
 /// (from the latest first point to the earliest last point), so the mean never mixes a
@@ -165,13 +199,24 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 bands
             };
         let mut eval_chart = None;
+        let limit = options.cost_limits.of_runs(env, by_filter.values().flatten().copied());
         for kind in PlotKind::ALL {
+            if kind.needs_cost_limit() && limit.is_none() {
+                continue;
+            }
             let grid = match kind {
-                PlotKind::Evaluation => Grid::Union,
+                PlotKind::Evaluation | PlotKind::EvalCost => Grid::Union,
                 _ => Grid::Linear(options.grid_points),
             };
             let name = kind.suffix();
-            let why = format!("the seeds' {name} share no step range");
+            let why = match kind {
+                PlotKind::EvalCost => {
+                    "a seed has no evaluation with a cost (eval.csv's mean_cost) or the seeds share no \
+                     step range"
+                        .to_string()
+                }
+                _ => format!("the seeds' {name} share no step range"),
+            };
             let bands = bands_of(&|r| curve(r, kind, options), grid, name, &why, &mut plots.notes);
             if bands.is_empty() {
                 continue;
@@ -179,10 +224,17 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             let chart = Chart {
                 title: title(env, algo, *budget, kind),
                 y_label: y_label(kind, options),
-                y_from: matches!(kind, PlotKind::CrashRate | PlotKind::Crashes).then_some(0.0),
+                y_from: matches!(
+                    kind,
+                    PlotKind::CrashRate | PlotKind::Crashes | PlotKind::Cost | PlotKind::EvalCost
+                )
+                .then_some(0.0),
                 x_from: None,
-                markers: kind == PlotKind::Evaluation,
+                markers: matches!(kind, PlotKind::Evaluation | PlotKind::EvalCost),
                 bands,
+                limit: limit
+                    .filter(|_| kind == PlotKind::EvalCost)
+                    .map(|l| (l, format!("episode cost limit ({l})"))),
             };
             let base = dir.join(format!("{stem}_{}", kind.suffix()));
             plots.files.extend(write_figure(&chart, &base, (options.width, options.height))?);
@@ -211,6 +263,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 x_from: Some(0.0),
                 markers: false,
                 bands,
+                limit: None,
             };
             let figure = windows::Windows {
                 title: format!(
@@ -264,6 +317,8 @@ fn title(env: &str, algo: &str, budget: Budget, kind: PlotKind) -> String {
         PlotKind::CrashRate => "cumulative crash rate",
         PlotKind::Evaluation => "evaluation return",
         PlotKind::Crashes => "crashes against environment steps",
+        PlotKind::Cost => "cumulative cost against environment steps",
+        PlotKind::EvalCost => "evaluation cost",
     };
     format!("{env}, {}, {budget}: {what}", crate::run::algo_display(algo))
 }
@@ -277,6 +332,8 @@ fn y_label(kind: PlotKind, options: &PlotOptions) -> String {
         PlotKind::CrashRate => "crashed episodes so far (%)".into(),
         PlotKind::Evaluation => "mean evaluation return".into(),
         PlotKind::Crashes => "crashes so far (x: steps that reached the environment)".into(),
+        PlotKind::Cost => "training cost so far (x: steps that reached the environment)".into(),
+        PlotKind::EvalCost => "mean evaluation episode cost".into(),
     }
 }
 
@@ -305,6 +362,13 @@ fn curve(run: &Run, kind: PlotKind, options: &PlotOptions) -> (Vec<f64>, Vec<f64
             run.evaluations.iter().map(|e| e.total_steps as f64).collect(),
             run.evaluations.iter().map(|e| e.mean_return).collect(),
         ),
+        // The crashes and the cost are counted alike (`Run::cumulative`): over the steps that
+        // reached the environment.
         PlotKind::Crashes => run.cumulative_crashes().into_iter().map(|(s, c)| (s as f64, c as f64)).unzip(),
+        PlotKind::Cost => run.cumulative_cost().into_iter().map(|(s, c)| (s as f64, c)).unzip(),
+        // Rows of a file from before costs existed have no cost: left out.
+        PlotKind::EvalCost => {
+            run.evaluations.iter().filter_map(|e| Some((e.total_steps as f64, e.mean_cost?))).unzip()
+        }
     }
 }

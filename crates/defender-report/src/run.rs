@@ -152,6 +152,11 @@ pub struct Summary {
     /// otherwise. The same record as `config.toml`'s `[defender.selection]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selection: Option<StrategySelection>,
+    /// The episode cost limit of the run's task (25 for the velocity tasks), from the task
+    /// registry `defender train` ran it with; absent for a task without one and in summaries
+    /// written before it existed. `defender report` uses it when not told the task's limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub episode_cost_limit: Option<f64>,
 }
 
 /// How `defender train --strategy auto` chose the strategy of a run (`defender select`'s

@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use defender::Mode;
 use defender_rl::Budget;
 
+use crate::costs::{CostColumns, CostLimits};
 use crate::run::{DefenderSettings, Run};
 use crate::stats::{Estimate, Stat};
 
@@ -50,6 +51,9 @@ pub struct Row {
     /// algorithm, budget and seed x 100; over the seeds that have such a bare run. `None` when
     /// no seed has one.
     pub time_pct: Option<Stat>,
+    /// The field's cost measures, for a task with an episode cost limit ([`TableOptions`]);
+    /// `None` for the others (the crash tasks).
+    pub costs: Option<CostColumns>,
 }
 
 impl Row {
@@ -80,11 +84,24 @@ pub struct Table {
     pub notes: Vec<String>,
 }
 
+/// What a table is built with besides the runs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TableOptions {
+    /// The episode cost limit of each per-step cost task: its rows get the cost columns.
+    pub cost_limits: CostLimits,
+}
+
 type GroupKey = (String, String, Budget, Option<(Mode, String, Option<u64>, bool, bool)>);
 
 impl Table {
-    /// Aggregates `runs` over seeds.
+    /// Aggregates `runs` over seeds, with no cost limit but the ones the runs' summaries record.
     pub fn from_runs(runs: &[Run]) -> Table {
+        Table::from_runs_with(runs, &TableOptions::default())
+    }
+
+    /// Aggregates `runs` over seeds; a row of a task with a cost limit in `options` (or recorded
+    /// by its runs) gets the cost columns.
+    pub fn from_runs_with(runs: &[Run], options: &TableOptions) -> Table {
         let mut groups: BTreeMap<GroupKey, Vec<&Run>> = BTreeMap::new();
         for run in runs {
             let c = &run.config;
@@ -146,6 +163,8 @@ impl Table {
             else {
                 continue; // unreachable: a group has at least one run
             };
+            let limit = options.cost_limits.of_runs(&env, group.iter().copied());
+            let costs = limit.and_then(|limit| CostColumns::of(limit, &group));
             let row = Row {
                 env,
                 algo,
@@ -162,6 +181,7 @@ impl Table {
                 filtered_pct,
                 wall_seconds,
                 time_pct: Stat::of(&ratios),
+                costs,
             };
             if !missing.is_empty() {
                 let list: Vec<String> = missing.iter().map(u64::to_string).collect();

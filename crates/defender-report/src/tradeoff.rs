@@ -8,7 +8,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::figure::{FONT_NAME, Figure, color, finish, range};
+use crate::figure::{Axes, Figure, axes, color, finish, range, whole};
 use crate::run::Run;
 use crate::stats::Stat;
 
@@ -58,7 +58,6 @@ impl Figure for Tradeoff {
         DB::ErrorType: 'static,
     {
         let e = |err: DrawingAreaErrorKind<DB::ErrorType>| err.to_string();
-        root.fill(&WHITE).map_err(e)?;
         let lo =
             self.points.iter().map(|p| p.acc_reward.mean - p.acc_reward.std).fold(f64::INFINITY, f64::min);
         let hi = self
@@ -70,23 +69,18 @@ impl Figure for Tradeoff {
         let lo = target.map_or(lo, |(_, acc)| lo.min(acc));
         // Head room above the points for the legend.
         let (y0, y1) = range(lo, hi, 0.05, 0.45);
-        let mut plot = ChartBuilder::on(&root)
-            .caption(&self.title, (FONT_NAME, 22))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(75)
-            .build_cartesian_2d(0.0..105.0, y0..y1)
-            .map_err(e)?;
-        plot.configure_mesh()
-            .x_desc("% Crash: training episodes that crashed (%)")
-            .y_desc("Acc Reward: final evaluation return")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .label_style((FONT_NAME, 14))
-            .axis_desc_style((FONT_NAME, 16))
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(e)?;
+        let mut plot = axes(
+            &root,
+            &Axes {
+                title: &self.title,
+                x: 0.0..105.0,
+                y: y0..y1,
+                x_desc: "% Crash: training episodes that crashed (%)",
+                y_desc: "Acc Reward: final evaluation return",
+                x_ticks: &whole,
+                y_ticks: &whole,
+            },
+        )?;
         if let Some((crash, acc)) = target {
             let shade = RGBColor(44, 160, 44).mix(0.12);
             plot.draw_series(std::iter::once(Rectangle::new([(0.0, acc), (crash, y1)], shade.filled())))

@@ -7,7 +7,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::run::Run;
+use crate::run::{EpisodeRow, Run};
 
 /// A run's violations (`summary.json`, and what `defender report` computes from `metrics.csv`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -54,20 +54,32 @@ impl Run {
     }
 
     /// `(environment steps, crashes so far)` at the end of each training episode: the cumulative
-    /// crash curve. Filtered steps do not count as environment steps; a run's episodes do not
-    /// say which of their steps were filtered, but a filtered episode ends at its one filtered
-    /// step, so each filtered episode before it takes one step off.
+    /// crash curve (counted as `Run::cumulative` says).
     pub fn cumulative_crashes(&self) -> Vec<(u64, u64)> {
-        let (mut crashes, mut filtered) = (0u64, 0u64);
+        self.cumulative(|e| u64::from(e.outcome == defender_rl::Outcome::Crashed))
+    }
+
+    /// `(environment steps, cost so far)` at the end of each training episode: the cumulative
+    /// cost curve of a per-step cost task (counted as `Run::cumulative` says).
+    pub fn cumulative_cost(&self) -> Vec<(u64, f64)> {
+        self.cumulative(|e| e.cost)
+    }
+
+    /// `(environment steps, running sum)` at the end of each training episode, the sum adding
+    /// `of` of every episode so far. Filtered steps do not count as environment steps; a run's episodes do not say
+    /// which of their steps were filtered, but a filtered episode ends at its one filtered step,
+    /// so each filtered episode up to and including this one takes one step off.
+    fn cumulative<T: Copy + Default + std::ops::AddAssign>(
+        &self,
+        of: impl Fn(&EpisodeRow) -> T,
+    ) -> Vec<(u64, T)> {
+        let (mut sum, mut filtered) = (T::default(), 0u64);
         self.episodes
             .iter()
             .map(|e| {
-                match e.outcome {
-                    defender_rl::Outcome::Crashed => crashes += 1,
-                    defender_rl::Outcome::Filtered => filtered += 1,
-                    defender_rl::Outcome::Truncated => {}
-                }
-                (e.total_steps.saturating_sub(filtered), crashes)
+                sum += of(e);
+                filtered += u64::from(e.outcome == defender_rl::Outcome::Filtered);
+                (e.total_steps.saturating_sub(filtered), sum)
             })
             .collect()
     }

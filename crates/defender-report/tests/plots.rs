@@ -161,3 +161,42 @@ fn the_arms_of_an_experiment_share_one_plot_per_task() {
     assert!(svg.contains("SAC (bare) [2 seeds]"), "{svg}");
     assert!(svg.contains(&format!("{}, keeps-learning [2 seeds]", A.unwrap().0)), "{svg}");
 }
+
+#[test]
+fn a_cost_task_gets_the_cost_plots_and_a_crash_task_does_not() {
+    let root = tempfile::tempdir().unwrap();
+    let env = "SafetyHopperVelocity-v1";
+    for seed in 0..2 {
+        RunSpec::new("sac", seed, None)
+            .env(env)
+            .outcomes(3, 0, 0)
+            .costs(&[30.0, 10.0 * seed as f64, 0.0])
+            .eval_costs(&[40.0, 20.0, 5.0 + seed as f64])
+            .write(&root.path().join("runs"));
+    }
+    RunSpec::new("sac", 0, None).outcomes(3, 1, 0).write(&root.path().join("runs"));
+    let set = load_runs(&[root.path().join("runs")]).unwrap();
+    let options = PlotOptions { cost_limits: [(env, 25.0)].into_iter().collect(), ..PlotOptions::default() };
+    let plots = draw_plots(&set.runs, root.path().join("p"), &options).unwrap();
+    assert!(plots.notes.is_empty(), "{:?}", plots.notes);
+    let names: Vec<String> =
+        plots.files.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    for kind in ["cost", "eval_cost"] {
+        for ext in ["png", "svg"] {
+            let name = format!("{env}_sac_{kind}.{ext}");
+            assert!(names.contains(&name), "{name} in {names:?}");
+            let bytes = std::fs::read(root.path().join("p").join(&name)).unwrap();
+            assert!(bytes.len() > 10_000, "{name} is only {} bytes", bytes.len());
+        }
+        assert!(!names.iter().any(|n| n.starts_with(&format!("Hopper-v5_sac_{kind}."))), "{names:?}");
+    }
+    assert_eq!(names.len(), 14 + 18, "the crash task's 7 figures, the cost task's 9, each twice");
+    let svg = std::fs::read_to_string(root.path().join(format!("p/{env}_sac_cost.svg"))).unwrap();
+    assert!(svg.contains("cumulative cost against environment steps"), "{svg}");
+    assert!(svg.contains("training cost so far") && svg.contains("SAC (bare) [2 seeds]"));
+    assert!(svg.contains("<polygon"), "the band between the seeds");
+    let svg = std::fs::read_to_string(root.path().join(format!("p/{env}_sac_eval_cost.svg"))).unwrap();
+    assert!(svg.contains("evaluation cost") && svg.contains("mean evaluation episode cost"), "{svg}");
+    assert!(svg.contains("episode cost limit (25)"), "the limit's legend entry: {svg}");
+    assert!(svg.contains("<circle"), "evaluations are marked");
+}

@@ -5,7 +5,10 @@ use std::io::Write as _;
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use defender_report::{Format, PlotOptions, ReportError, Table, draw_plots, load_runs, render, write_atomic};
+use defender_report::{
+    CostLimits, Format, PlotOptions, ReportError, Table, TableOptions, draw_plots, load_runs, render,
+    write_atomic,
+};
 
 use anyhow::bail;
 
@@ -22,6 +25,12 @@ evaluations); % Crash; Standing % (evaluations that stood still); each as mean Â
 (population std, ddof = 0) [95% percentile bootstrap interval over seeds, 50,000 resamples,
 fixed seed], with the number of seeds. % Time: wall-clock time / that of the bare run with the
 same task, algorithm, budget and seed x 100 (\"-\" without a bare run).
+
+A task with a per-step cost and an episode cost limit (the Safety*Velocity-v1 tasks: 25, OmniSafe's
+benchmark setting on Safety-Gymnasium) adds: Cost rate (training cost / environment steps,
+filtered steps not counted), Eval cost (last-10: the evaluations' mean cost over the last 10),
+and % episodes cost > 25 (training episodes over the limit); --plots adds *_cost (cumulative
+training cost) and *_eval_cost (evaluation cost, the limit drawn across).
 
 A run directory that is not complete is left out and listed, with its state: still running
 (its lock is held), stopped (a checkpoint to resume from) or broken; --strict makes that an
@@ -62,7 +71,8 @@ pub struct ReportArgs {
     /// Also draw the plots into DIR, created if needed (PNG and SVG): per task, the learning
     /// curves (training return, cumulative crash rate, evaluation return), the trade-off of the
     /// final results, and `*_windows`, the crash rate over a rolling window of steps beside the
-    /// evaluation return, for reading long budgets.
+    /// evaluation return, for reading long budgets; for a task with a cost limit, `*_cost` and
+    /// `*_eval_cost`.
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
     /// The window of the rolling crash rate in `--plots` (`*_windows`), in environment steps
@@ -102,7 +112,14 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
     if set.runs.is_empty() {
         return Err(ReportError::Empty.into());
     }
-    let mut table = Table::from_runs(&set.runs);
+    // The episode cost limits are the task registry's (defender-mujoco), which the report crate
+    // does not depend on: a per-step cost task's rows and plots get the cost measures.
+    let cost_limits: CostLimits = defender_mujoco::registry()
+        .iter()
+        .filter_map(|spec| spec.cost.episode_limit().map(|limit| (spec.id, limit)))
+        .collect();
+    let options = TableOptions { cost_limits: cost_limits.clone() };
+    let mut table = Table::from_runs_with(&set.runs, &options);
     let format = Format::from(args.format);
     if format == Format::Csv {
         // Markdown and LaTeX carry the notes in the output; CSV has no place for them.
@@ -135,7 +152,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(dir) = &args.plots {
-        let options = PlotOptions { crash_window: args.crash_window, ..PlotOptions::default() };
+        let options = PlotOptions { crash_window: args.crash_window, cost_limits, ..PlotOptions::default() };
         let plots = draw_plots(&set.runs, dir, &options)?;
         for note in &plots.notes {
             note!("note: {note}");

@@ -464,6 +464,11 @@ impl TrainHooks {
             complete: final_eval.is_some(),
             selection: defender.and_then(|d| d.selection.clone()),
             violations: Default::default(),
+            // The report reads a task's cost measures against it. The run's environment was made
+            // from the same registry, so the id is known; were it not, the run has no limit.
+            episode_cost_limit: defender_mujoco::Task::from_id(&self.config.env)
+                .ok()
+                .and_then(|t| t.episode_cost_limit()),
         };
         summary.count(trainer.episodes().iter().map(|e| (e.outcome(), e.cost())));
         self.run_dir.write_summary(&summary)?;

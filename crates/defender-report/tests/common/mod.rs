@@ -25,6 +25,13 @@ pub struct RunSpec {
     /// Evaluations as `(mean_return, mean_length)`, one every 100 steps, instead of the rising
     /// line; the last one's return becomes the Acc Reward.
     pub evals: Option<Vec<(f64, f64)>>,
+    /// Episode costs (as many as `outcomes`), written as `metrics.csv`'s `cost` column; `None`:
+    /// no column (a file from before costs: a crash costs 1).
+    pub costs: Option<Vec<f64>>,
+    /// Evaluation mean costs (as many as the evaluations), written as `eval.csv`'s `mean_cost`.
+    pub eval_costs: Option<Vec<f64>>,
+    /// Written as `summary.json`'s `episode_cost_limit`.
+    pub cost_limit: Option<f64>,
 }
 
 impl RunSpec {
@@ -39,7 +46,35 @@ impl RunSpec {
             wall_seconds: 10.0,
             returns: None,
             evals: None,
+            costs: None,
+            eval_costs: None,
+            cost_limit: None,
         }
+    }
+
+    /// The task, e.g. `SafetyHopperVelocity-v1`.
+    pub fn env(mut self, env: &'static str) -> Self {
+        self.env = env;
+        self
+    }
+
+    /// Episode costs, one per outcome.
+    pub fn costs(mut self, costs: &[f64]) -> Self {
+        assert_eq!(costs.len(), self.outcomes.len());
+        self.costs = Some(costs.to_vec());
+        self
+    }
+
+    /// Evaluation mean costs, one per evaluation.
+    pub fn eval_costs(mut self, costs: &[f64]) -> Self {
+        self.eval_costs = Some(costs.to_vec());
+        self
+    }
+
+    /// The episode cost limit `summary.json` records.
+    pub fn cost_limit(mut self, limit: f64) -> Self {
+        self.cost_limit = Some(limit);
+        self
     }
 
     /// `crashed` episodes first, then `filtered`, then `truncated`, `n` in all.
@@ -113,29 +148,41 @@ impl RunSpec {
         config.push_str("\n[algo_config]\nlearning_rate = 0.0003\nbatch_size = 256\n");
         std::fs::write(dir.join("config.toml"), config).unwrap();
 
-        let mut metrics = String::from("episode,total_steps,return,length,outcome,wall_seconds\n");
+        let mut metrics = String::from("episode,total_steps,return,length,outcome,wall_seconds");
+        metrics.push_str(if self.costs.is_some() { ",cost\n" } else { "\n" });
         for (i, outcome) in self.outcomes.iter().enumerate() {
             let i = i as u64;
             let wall = self.wall_seconds * (i + 1) as f64 / n as f64;
             let ret = self.returns.as_ref().map_or((10 * i + self.seed) as f64, |r| r[i as usize]);
-            writeln!(metrics, "{i},{},{ret:?},100,{outcome},{wall}", 100 * (i + 1)).unwrap();
+            write!(metrics, "{i},{},{ret:?},100,{outcome},{wall}", 100 * (i + 1)).unwrap();
+            match &self.costs {
+                Some(costs) => writeln!(metrics, ",{}", costs[i as usize]).unwrap(),
+                None => metrics.push('\n'),
+            }
         }
         std::fs::write(dir.join("metrics.csv"), metrics).unwrap();
 
-        let mut eval = String::from("total_steps,mean_return,std_return,mean_length,episodes\n");
+        let mut eval = String::from("total_steps,mean_return,std_return,mean_length,episodes");
+        eval.push_str(if self.eval_costs.is_some() { ",mean_cost\n" } else { "\n" });
+        let mut rows = Vec::new();
         match &self.evals {
             None => {
                 for k in 1..=n {
                     let mean = self.acc_reward * k as f64 / n as f64;
-                    writeln!(eval, "{},{mean},1.5,100.0,10", 100 * k).unwrap();
+                    rows.push(format!("{},{mean},1.5,100.0,10", 100 * k));
                 }
             }
             Some(evals) => {
                 for (k, (mean, length)) in evals.iter().enumerate() {
-                    writeln!(eval, "{},{mean:?},1.5,{length:?},10", 100 * (k + 1)).unwrap();
+                    rows.push(format!("{},{mean:?},1.5,{length:?},10", 100 * (k + 1)));
                 }
             }
         }
+        if let Some(costs) = &self.eval_costs {
+            assert_eq!(costs.len(), rows.len(), "one mean cost per evaluation");
+            rows.iter_mut().zip(costs).for_each(|(row, cost)| write!(row, ",{cost}").unwrap());
+        }
+        rows.iter().for_each(|row| writeln!(eval, "{row}").unwrap());
         std::fs::write(dir.join("eval.csv"), eval).unwrap();
 
         let count = |o: &str| self.outcomes.iter().filter(|x| **x == o).count() as f64;
@@ -150,14 +197,15 @@ impl RunSpec {
              \"mode\": {mode},\n  \"acc_reward\": {:?},\n  \"crash_pct\": {crash_pct:?},\n  \
              \"filtered_pct\": {filtered_pct:?},\n  \"episodes\": {n}, \"steps\": {steps}, \
              \"filtered_steps\": {},\n  \"wall_seconds\": {:?}, \"steps_per_second\": {:?},\n  \
-             \"complete\": true\n}}\n",
+             \"complete\": true{}\n}}\n",
             self.env,
             self.algo,
             self.seed,
             self.acc_reward,
             count("filtered") as u64,
             self.wall_seconds,
-            steps as f64 / self.wall_seconds
+            steps as f64 / self.wall_seconds,
+            self.cost_limit.map(|l| format!(", \"episode_cost_limit\": {l:?}")).unwrap_or_default()
         );
         std::fs::write(dir.join("summary.json"), summary).unwrap();
         dir
