@@ -1,7 +1,7 @@
 //! The task policy's sampled actions for a batch of states, drawn from a caller's generator:
 //! Recovery RL's safety critic bootstraps from `Q_risk(s', a')` with `a' ~ pi_task(.|s')`, as its
 //! authors' code passes the task agent's policy to the safety critic's update
-//! (docs/decisions.md, "Recovery RL"). The agent's own generator is not touched, so its stream
+//! (docs/decisions-baselines.md, "Recovery RL"). The agent's own generator is not touched, so its stream
 //! (exploration, batches) is the one it would draw alone.
 
 use rand::Rng;

@@ -8,7 +8,7 @@
 //! ```
 //!
 //! `a'` is the next action SAC sampled for its reward target in the same step, not the actor's
-//! deterministic action OmniSafe takes (docs/decisions.md, "Lagrangian SAC").
+//! deterministic action OmniSafe takes (docs/decisions-baselines.md, "Lagrangian SAC").
 
 use std::path::Path;
 

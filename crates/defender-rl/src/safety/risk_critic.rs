@@ -14,7 +14,7 @@
 //! ```
 //!
 //! Only `terminated` stops the bootstrap (their mask is set before the time limit ends an
-//! episode). docs/decisions.md, "Recovery RL", gives each choice and its source.
+//! episode). docs/decisions-baselines.md, "Recovery RL", gives each choice and its source.
 
 use std::path::Path;
 
