@@ -5,41 +5,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+
+use common::{ok, refused, s};
 
 const VELOCITY: &str = "SafetyHopperVelocity-v1";
-
-fn defender(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_defender"))
-        .env("DEFENDER_NN_THREADS", "1")
-        .args(args)
-        .output()
-        .expect("run defender")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = defender(args);
-    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
-    text(&out)
-}
-
-fn refused(args: &[&str], expect: &[&str]) {
-    let out = defender(args);
-    let msg = text(&out);
-    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
-    for e in expect {
-        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
-    }
-    assert!(!msg.contains("panicked"), "{msg}");
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Hopper-v5's shipped demonstrations as if collected on the velocity task (the same body and
 /// dimensions), with `meta` naming `limit` or, with `None`, no limit (a set labelled by crashes).
@@ -54,6 +25,13 @@ fn velocity_demos(dir: &Path, limit: Option<f64>) -> PathBuf {
     let path = dir.join(format!("demos-{}.npz", limit.map_or("crash".into(), |l| l.to_string())));
     set.save(&path).unwrap();
     path
+}
+
+/// The `cost` column of `dir/metrics.csv`, one value per training episode.
+fn episode_costs(dir: &Path) -> Vec<f64> {
+    let metrics = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    let cost = metrics.lines().next().unwrap().split(',').position(|c| c == "cost").unwrap();
+    metrics.lines().skip(1).map(|l| l.split(',').nth(cost).unwrap().parse().unwrap()).collect()
 }
 
 fn train(dir: &Path, extra: &[&str]) -> Vec<String> {
@@ -72,11 +50,8 @@ fn lagrangian_sac_takes_the_fields_limit_on_a_velocity_task_and_a_crash_probabil
     ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
     let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
     assert!(config.contains("cost_limit = 25.0"), "{config}");
-    let metrics = std::fs::read_to_string(run.join("metrics.csv")).unwrap();
-    let cost = metrics.lines().next().unwrap().split(',').position(|c| c == "cost").unwrap();
-    for line in metrics.lines().skip(1) {
-        let c: f64 = line.split(',').nth(cost).unwrap().parse().unwrap();
-        assert!(c >= 0.0 && c.fract() == 0.0, "{line}");
+    for c in episode_costs(&run) {
+        assert!(c >= 0.0 && c.fract() == 0.0, "{c}");
     }
     let args = train(&tmp.path().join("zero"), &["--lagrangian", "0"]);
     refused(&args.iter().map(String::as_str).collect::<Vec<_>>(), &["cost_limit = 0", VELOCITY, "> 0"]);
@@ -134,12 +109,6 @@ fn recorded_episodes_of_a_velocity_task_are_labelled_by_the_limit() {
     let set = defender::EpisodeSet::load(&episodes).unwrap();
     assert_eq!(set.meta().extra[defender::EPISODE_COST_LIMIT_KEY], serde_json::json!(25.0));
     // Early Hopper episodes fall within tens of steps, long before 25 fast steps: none unsafe.
-    let metrics = std::fs::read_to_string(run.join("metrics.csv")).unwrap();
-    let cost = metrics.lines().next().unwrap().split(',').position(|c| c == "cost").unwrap();
-    let over: usize = metrics
-        .lines()
-        .skip(1)
-        .filter(|l| l.split(',').nth(cost).unwrap().parse::<f64>().unwrap() > 25.0)
-        .count();
+    let over = episode_costs(&run).into_iter().filter(|&c| c > 25.0).count();
     assert_eq!(set.group_sizes().1, over, "an episode is unsafe exactly when its cost passed 25");
 }

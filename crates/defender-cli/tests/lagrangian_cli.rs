@@ -4,46 +4,14 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
 
+use common::{command, ok, refused, s};
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
-
-fn command() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
-    c.env("DEFENDER_NN_THREADS", "1");
-    c
-}
-
-fn defender(args: &[&str]) -> Output {
-    command().args(args).output().expect("run defender")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = defender(args);
-    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
-    text(&out)
-}
-
-fn refused(args: &[&str], expect: &[&str]) {
-    let out = defender(args);
-    let msg = text(&out);
-    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
-    for e in expect {
-        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
-    }
-    assert!(!msg.contains("panicked"), "{msg}");
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn read(dir: &Path, name: &str) -> String {
     std::fs::read_to_string(dir.join(name)).unwrap()
