@@ -4,17 +4,23 @@
 OmniSafe is measured against, not used by the project (docs/peers.md). This runs its SACLag with
 its own defaults (configs/off-policy/SACLag.yaml: 2,000 steps an epoch, 10,000 random steps, the
 multiplier frozen for 100 warm-up epochs, one evaluation episode an epoch) and the field's cost
-limit 25, on one seed and budget, one CPU thread. OmniSafe logs by epoch (progress.csv, means over
-the epoch's episodes); to plot its curve beside ours episode by episode, this also writes every
-training episode as it ends:
+limit 25, on one seed and budget, one CPU thread. OmniSafe logs by epoch (progress.csv, where each
+value is a mean over the logger's last 10); to put its curve beside ours episode by episode, this
+also writes every episode as it ends:
 
-  OUT/episodes.csv   episode,total_steps,return,length,cost
+  OUT/episodes.csv   episode,total_steps,return,length,cost,wall_seconds: each training episode;
                      episode from 0; total_steps = environment steps taken when it ended (as
                      our metrics.csv's total_steps); return and cost are the episode's sums of the
                      raw reward and cost (OmniSafe's `original_reward`/`original_cost`, before its
-                     cost normalisation), length its steps.
-  OUT/run.json       the arguments and the versions of omnisafe, safety-gymnasium, torch, mujoco
+                     cost normalisation), length its steps; wall_seconds since training started.
+  OUT/evals.csv      total_steps,return,length,cost,wall_seconds: each deterministic evaluation
+                     episode (OmniSafe's: one at each epoch's end).
+  OUT/run.json       the arguments and the versions of omnisafe, safety-gymnasium, torch, mujoco;
+                     when training ends, "complete": true, its env_steps and wall_seconds
   OUT/SACLag-{ENV}/seed-SSS-.../  OmniSafe's own logs (progress.csv, config.json, tb/, torch_save/)
+  OUT/config.toml, metrics.csv, eval.csv, summary.json
+                     when training ends: OUT as a run directory that `defender report` reads
+                     beside ours (tools/omnisafe_run_dir.py, which also converts by hand)
 
 Run (after `bash tools/omnisafe-venv.sh`), e.g. one seed at the shared budget:
   .deps/omnisafe-venv/bin/python tools/omnisafe_saclag.py --env SafetyHopperVelocity-v1 \\
@@ -31,7 +37,11 @@ import csv
 import json
 import os
 import sys
+import time
 from importlib import metadata
+
+EPISODE_HEADER = ["episode", "total_steps", "return", "length", "cost", "wall_seconds"]
+EVAL_HEADER = ["total_steps", "return", "length", "cost", "wall_seconds"]
 
 VELOCITY_TASKS = (
     "SafetyHopperVelocity-v1",
@@ -44,38 +54,85 @@ VELOCITY_TASKS = (
 
 
 class EpisodeCsv:
-    """Writes each finished training episode as a CSV row at once (a killed run keeps its rows)."""
+    """Writes rows to a CSV file as they come, flushed at once (a killed run keeps its rows)."""
 
-    def __init__(self, path: str) -> None:
+    def __init__(self, path: str, header: list[str]) -> None:
         self._file = open(path, "w", newline="", encoding="utf-8")  # noqa: SIM115 (closed in close)
         self._csv = csv.writer(self._file)
-        self._csv.writerow(["episode", "total_steps", "return", "length", "cost"])
-        self.episodes = 0
-        self.steps = 0
+        self._csv.writerow(header)
+        self.rows = 0
 
-    def step(self, num_envs: int) -> None:
-        self.steps += num_envs
-
-    def episode(self, ret: float, length: int, cost: float) -> None:
-        self._csv.writerow([self.episodes, self.steps, repr(ret), length, repr(cost)])
+    def write(self, row: list) -> None:
+        self._csv.writerow(row)
         self._file.flush()
-        self.episodes += 1
+        self.rows += 1
 
     def close(self) -> None:
         self._file.close()
 
 
-def hook_episodes(recorder: EpisodeCsv) -> None:
-    """Makes OmniSafe's off-policy adapter report each step and finished episode to `recorder`.
+class Recorder:
+    """Every training episode (episodes.csv) and every evaluation episode (evals.csv) as it ends,
+    with the environment steps of training so far and the seconds since training started."""
+
+    def __init__(self, out: str) -> None:
+        self.train = EpisodeCsv(os.path.join(out, "episodes.csv"), EPISODE_HEADER)
+        self.evals = EpisodeCsv(os.path.join(out, "evals.csv"), EVAL_HEADER)
+        self.steps = 0
+        self.start = time.monotonic()
+
+    def wall(self) -> str:
+        return f"{time.monotonic() - self.start:.3f}"
+
+    def step(self, num_envs: int) -> None:
+        self.steps += num_envs
+
+    def episode(self, ret: float, length: int, cost: float) -> None:
+        self.train.write([self.train.rows, self.steps, repr(ret), length, repr(cost), self.wall()])
+
+    def evaluation(self, ret: float, length: int, cost: float) -> None:
+        self.evals.write([self.steps, repr(ret), length, repr(cost), self.wall()])
+
+    def close(self) -> None:
+        self.train.close()
+        self.evals.close()
+
+
+class _EvalLogger:
+    """Stands in for OmniSafe's logger during `eval_policy`: hands each evaluation episode's
+    `Metrics/TestEp*` values to the recorder, then to the logger unchanged."""
+
+    def __init__(self, logger, recorder: Recorder) -> None:  # noqa: ANN001 (OmniSafe's Logger)
+        self._logger, self._recorder = logger, recorder
+
+    def store(self, data: dict, **kwargs) -> None:  # noqa: ANN003
+        if "Metrics/TestEpRet" in data:
+            self._recorder.evaluation(
+                float(data["Metrics/TestEpRet"]), int(data["Metrics/TestEpLen"]), float(data["Metrics/TestEpCost"])
+            )
+        self._logger.store(data, **kwargs)
+
+    def __getattr__(self, name: str):  # noqa: ANN204
+        return getattr(self._logger, name)
+
+
+def hook_episodes(recorder: Recorder) -> None:
+    """Makes OmniSafe's off-policy adapter report each step, finished training episode and
+    evaluation episode to `recorder`.
 
     OmniSafe keeps the episode's sums in `_ep_ret`/`_ep_cost`/`_ep_len` (raw values, before
     normalisation) and passes them to `_log_metrics` when the episode ends, before resetting them;
-    `_log_value` runs once per vector step. Both are wrapped, not replaced, so OmniSafe's own
-    logging is unchanged. Only training episodes pass here: evaluation uses `eval_policy`.
+    `_log_value` runs once per vector step; `eval_policy` stores each evaluation episode's raw
+    sums in the logger (whose progress.csv shows only a mean over its last 10 values). All three
+    are wrapped, not replaced, so OmniSafe's own logging is unchanged.
     """
     from omnisafe.adapter.offpolicy_adapter import OffPolicyAdapter
 
-    log_value, log_metrics = OffPolicyAdapter._log_value, OffPolicyAdapter._log_metrics
+    log_value, log_metrics, eval_policy = (
+        OffPolicyAdapter._log_value,
+        OffPolicyAdapter._log_metrics,
+        OffPolicyAdapter.eval_policy,
+    )
 
     def _log_value(self, reward, cost, info):  # noqa: ANN001 (OmniSafe's signature)
         log_value(self, reward=reward, cost=cost, info=info)
@@ -85,8 +142,12 @@ def hook_episodes(recorder: EpisodeCsv) -> None:
         recorder.episode(float(self._ep_ret[idx]), int(self._ep_len[idx]), float(self._ep_cost[idx]))
         log_metrics(self, logger, idx)
 
+    def _eval_policy(self, episode, agent, logger):  # noqa: ANN001
+        eval_policy(self, episode, agent, _EvalLogger(logger, recorder))
+
     OffPolicyAdapter._log_value = _log_value
     OffPolicyAdapter._log_metrics = _log_metrics
+    OffPolicyAdapter.eval_policy = _eval_policy
 
 
 def versions() -> dict[str, str]:
@@ -126,11 +187,9 @@ def main() -> int:
 
     import omnisafe  # after the argument checks: importing torch takes seconds
 
-    with open(os.path.join(out, "run.json"), "w", encoding="utf-8") as f:
-        json.dump({"algo": "SACLag", **vars(args), "versions": versions()}, f, indent=2)
-        f.write("\n")
-
-    recorder = EpisodeCsv(episodes_path)
+    run = {"algo": "SACLag", **vars(args), "versions": versions(), "complete": False}
+    write_json(os.path.join(out, "run.json"), run)
+    recorder = Recorder(out)
     hook_episodes(recorder)
     algo_cfgs: dict[str, int] = {"steps_per_epoch": args.steps_per_epoch}
     if args.start_learning_steps is not None:
@@ -147,12 +206,29 @@ def main() -> int:
         ep_ret, ep_cost, ep_len = agent.learn()
     finally:
         recorder.close()
+    # Complete: every step of the budget taken (OmniSafe ends only at the budget).
+    run.update(complete=recorder.steps == args.steps, env_steps=recorder.steps, wall_seconds=float(recorder.wall()))
+    write_json(os.path.join(out, "run.json"), run)
     print(
-        f"omnisafe_saclag: {args.env} seed {args.seed}: {recorder.episodes} training episodes, "
-        f"{recorder.steps} steps; last epoch's mean return {float(ep_ret):.1f}, cost {float(ep_cost):.1f}, "
-        f"length {float(ep_len):.0f} -> {episodes_path}"
+        f"omnisafe_saclag: {args.env} seed {args.seed}: {recorder.train.rows} training episodes, "
+        f"{recorder.evals.rows} evaluation episodes, {recorder.steps} steps; last epoch's mean return "
+        f"{float(ep_ret):.1f}, cost {float(ep_cost):.1f}, length {float(ep_len):.0f} -> {out}"
     )
+    # The same folder as a run directory, for `defender report` beside our runs.
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import omnisafe_run_dir
+
+    omnisafe_run_dir.convert(out, eval_every=10000)
+    print(f"omnisafe_saclag: {out} is also a run directory (tools/omnisafe_run_dir.py)")
     return 0
+
+
+def write_json(path: str, value: dict) -> None:
+    tmp = f"{path}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump(value, f, indent=2)
+        f.write("\n")
+    os.replace(tmp, path)
 
 
 if __name__ == "__main__":

@@ -5,15 +5,12 @@
 //! expected; none panics or allocates what the file declares.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
+mod common;
+
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-fn python() -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.deps/venv/bin/python");
-    assert!(p.exists(), "{} is missing: run `make setup`", p.display());
-    p
-}
+use common::python;
 
 /// Writes the hostile files into `dir` (Python: numpy for the valid arrays, the zip container by
 /// hand so that it can declare what it likes).

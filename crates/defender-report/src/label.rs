@@ -36,7 +36,8 @@ pub(crate) fn label_parts(label: &str) -> (&str, Option<&str>) {
 
 /// The algorithm as a report row names it: `sac`, or with what sets the run apart from its
 /// profile's agent and filter in brackets (`sac (authors)`, `sac (authors, demos+BC)`, `sac
-/// (authors, no demos)`, `sac (keeps-learning)`, `sac (demos+BC, margin0.02+own50)`), so that the
+/// (authors, no demos)`, `sac (keeps-learning)`, `sac (demos+BC, margin0.02+own50)`, a peer's
+/// `sac (omnisafe-saclag)`), so that the
 /// arms of an experiment (docs/experiments.md) form rows of their own, and runs whose filters
 /// decide differently never share a row.
 pub(crate) fn algo_label(raw: &RawConfig) -> String {
@@ -68,6 +69,10 @@ pub(crate) fn algo_label(raw: &RawConfig) -> String {
     }
     if let Some(safety) = &raw.safety {
         tags.push(safety_tag(safety));
+    }
+    // Another library's run (docs/peers.md) never shares a row with ours.
+    if let Some(peer) = &raw.peer {
+        tags.push(peer.get("name").and_then(toml::Value::as_str).unwrap_or("peer").to_string());
     }
     if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
 }

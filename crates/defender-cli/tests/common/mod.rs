@@ -1,7 +1,16 @@
 //! Helpers shared by the CLI's integration tests (each test file that needs them says `mod common;`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// The project's Python (made by `make setup`, with numpy), for tests that make inputs with it
+/// or run a tools/ script.
+#[allow(dead_code)]
+pub fn python() -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.deps/venv/bin/python");
+    assert!(p.exists(), "{} is missing: run `make setup`", p.display());
+    p
+}
 
 /// The `defender` binary under test, its networks on one thread.
 #[allow(dead_code)] // each test file uses a part
