@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench bench-peers lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel
+.PHONY: setup run test bench bench-peers bench-omnisafe lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel
 
 setup:
 	@bash scripts/setup.sh
@@ -28,6 +28,15 @@ bench: setup
 # a multi-GB download the first time), one table; BENCH_ARGS="--threads 1 --repeats 3" etc.
 bench-peers: setup
 	@bash scripts/bench-peers.sh
+
+# Our SAC and Lagrangian SAC (limit 25) beside OmniSafe's SACLag on SafetyHopperVelocity-v1, one
+# thread each, interleaved (tools/bench_peers.py; installs OmniSafe into .deps/omnisafe-venv first,
+# tools/omnisafe-venv.sh: a multi-GB download the first time). BENCH_ARGS="--repeats 5" etc.
+bench-omnisafe: setup
+	@bash tools/omnisafe-venv.sh
+	$(CARGO) build --release -p defender-cli
+	.deps/venv/bin/python tools/bench_peers.py --env SafetyHopperVelocity-v1 --algos sac,saclag \
+		--peers omnisafe --threads 1 $(BENCH_ARGS)
 
 lint: setup
 	$(CARGO) fmt --all -- --check
