@@ -5,32 +5,18 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use defender::EpisodeSet;
 
 mod common;
 
-fn defender(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_defender"))
-        .env("DEFENDER_NN_THREADS", "1")
-        .args(args)
-        .output()
-        .expect("run defender")
-}
+use common::{ok, s, text};
 
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = defender(args);
-    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
-    text(&out)
-}
-
+/// Runs `defender args`, which must fail (with any exit code, clap's usage errors too), a message
+/// holding every `expect`, and no panic. Unlike `common::refused`, the exit code may be other than 1.
 fn refused(args: &[&str], expect: &[&str]) {
-    let out = defender(args);
+    let out = common::defender(args);
     let msg = text(&out);
     assert!(!out.status.success(), "defender {args:?} should fail:\n{msg}");
     for e in expect {
@@ -41,10 +27,6 @@ fn refused(args: &[&str], expect: &[&str]) {
 
 fn golden(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../defender/tests/data/authors_protocol").join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// `strategy -> (mean_ratio, safe_rate, score)` of a CSV whose columns name them.
@@ -349,8 +331,7 @@ fn a_run_with_demonstrations_in_its_buffer_resumes_exactly() {
     ok(&args(&alone).iter().map(String::as_str).collect::<Vec<_>>());
 
     let out = dir.path().join("stopped");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_defender"))
-        .env("DEFENDER_NN_THREADS", "1")
+    let mut child = common::command()
         .args(args(&out))
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())

@@ -6,25 +6,12 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::Path;
-use std::process::{Command, Output};
+
+mod common;
+
+use common::{defender, s, text};
 
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
-
-fn defender(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_defender"))
-        .env("DEFENDER_NN_THREADS", "1")
-        .args(args)
-        .output()
-        .expect("run defender")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// Every file of the checkpoint but the manifest, relative and `/`-separated.
 fn files(root: &Path, dir: &Path, out: &mut Vec<String>) {

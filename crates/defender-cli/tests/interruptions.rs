@@ -5,54 +5,22 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
 
+use common::{ok, refused, s};
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
-    c.env("DEFENDER_NN_THREADS", "1");
-    c
-}
-
-fn defender(args: &[&str]) -> Output {
-    bin().args(args).output().expect("run defender")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn ok(args: &[&str]) {
-    let out = defender(args);
-    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
-}
-
-fn refused(args: &[&str], expect: &[&str]) -> String {
-    let out = defender(args);
-    let msg = text(&out);
-    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
-    for e in expect {
-        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
-    }
-    assert!(!msg.contains("panicked"), "{msg}");
-    msg
-}
-
 fn spawn(args: &[&str]) -> Child {
-    bin().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn defender")
+    common::command().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn defender")
 }
 
 fn signal(child: &Child, sig: &str) {
     let status = Command::new("kill").args(["-s", sig, &child.id().to_string()]).status().unwrap();
     assert!(status.success());
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn same_results(a: &Path, b: &Path) {

@@ -5,31 +5,14 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod common;
 
+use common::{ok, s, text};
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
-
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
-    c.env("DEFENDER_NN_THREADS", "1");
-    c
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn ok(args: &[&str]) {
-    let out = bin().args(args).output().unwrap();
-    assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
-}
 
 /// Small networks, learning from step 300, and a short pretraining (the flag keeps it).
 fn config_file(dir: &Path) -> String {
@@ -82,7 +65,7 @@ fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
 
     // The same run stopped by SIGTERM after its first evaluation, then resumed.
     let out = dir.path().join("stopped");
-    let mut child = bin()
+    let mut child = common::command()
         .args(args(&config, &out))
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -120,16 +103,16 @@ fn recovery_without_demonstrations_or_with_td3_is_refused_naming_the_key() {
     std::fs::create_dir(&empty).unwrap();
     let out = dir.path().join("x");
     let base = ["train", "--env", ENV_ID, "--steps", "100", "--recovery", "0.3", "--out", s(&out)];
-    let o = bin().args(base).env("DEFENDER_DATA", &empty).output().unwrap();
+    let o = common::command().args(base).env("DEFENDER_DATA", &empty).output().unwrap();
     let msg = text(&o);
     assert!(!o.status.success() && msg.contains("`demos`") && msg.contains("recovery"), "{msg}");
     assert!(!msg.contains("panicked"), "{msg}");
 
-    let o = bin().args(base).args(["--algo", "td3"]).output().unwrap();
+    let o = common::command().args(base).args(["--algo", "td3"]).output().unwrap();
     let msg = text(&o);
     assert!(!o.status.success() && msg.contains("algo = \"td3\""), "{msg}");
 
-    let o = bin()
+    let o = common::command()
         .args(["train", "--env", ENV_ID, "--steps", "100", "--recovery", "1.5", "--out"])
         .arg(&out)
         .output();

@@ -10,20 +10,17 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{s, text};
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
+/// `common::command()` with the progress lines off, so that a run's output is only its messages.
 fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
-    c.env("DEFENDER_NN_THREADS", "1").env("DEFENDER_PROGRESS_INTERVAL", "off");
+    let mut c = common::command();
+    c.env("DEFENDER_PROGRESS_INTERVAL", "off");
     c
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
 }
 
 /// Runs `defender args`, killed after `limit` (a hang fails the test instead of blocking it).
@@ -42,6 +39,8 @@ fn run_within(args: &[&str], limit: Duration) -> Output {
     child.wait_with_output().unwrap()
 }
 
+/// Like `common::refused`, but under a time limit, with clap's usage errors (exit code 2) allowed
+/// too, and giving the message back.
 fn refused(args: &[&str], expect: &[&str]) -> String {
     let out = run_within(args, Duration::from_secs(60));
     let msg = text(&out);
@@ -53,6 +52,7 @@ fn refused(args: &[&str], expect: &[&str]) -> String {
     msg
 }
 
+/// Like `common::ok`, but under a time limit.
 fn ok(args: &[&str]) {
     let out = run_within(args, Duration::from_secs(120));
     assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));

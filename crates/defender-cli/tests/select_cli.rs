@@ -6,36 +6,18 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{refused, s, text};
+
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_defender"));
-    c.env("DEFENDER_NN_THREADS", "1");
-    c
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
+/// Runs `defender args`, which must succeed; the run's `Output`, for the tests that read its
+/// stdout alone (`common::ok` gives stdout and stderr together).
 fn ok(args: &[&str]) -> Output {
-    let out = bin().args(args).output().unwrap();
+    let out = common::defender(args);
     assert!(out.status.success(), "defender {args:?} failed:\n{}", text(&out));
     out
-}
-
-fn refused(args: &[&str], expect: &[&str]) {
-    let out = bin().args(args).output().unwrap();
-    let msg = text(&out);
-    assert_eq!(out.status.code(), Some(1), "defender {args:?} should fail:\n{msg}");
-    for e in expect {
-        assert!(msg.contains(e), "defender {args:?}: message lacks '{e}':\n{msg}");
-    }
-    assert!(!msg.contains("panicked"), "{msg}");
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn shipped_demos() -> PathBuf {
@@ -132,7 +114,7 @@ fn select_refuses_bad_input_clearly() {
         &["max_false_alarm must be a rate in [0, 1], got NaN"],
     );
     // A usage error (clap's exit code 2) that lists the values.
-    let usage = bin()
+    let usage = common::command()
         .args(["select", "--demos", s(&demos), "--scaling", "minmax", "--out", s(&csv)])
         .output()
         .unwrap();
@@ -183,7 +165,7 @@ fn train_auto_records_the_choice_and_keeps_it_when_resumed() {
         "--out",
         s(&run),
     ];
-    let mut child = bin().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    let mut child = common::command().args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
     wait_for(&run.join("summary.json"));
     std::thread::sleep(Duration::from_millis(400));
     let status = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
