@@ -2,9 +2,10 @@
 //! loss `-lambda (J_c - d)`, then `lambda` clamped at 0, where `J_c` is the mean episode cost of
 //! the last `window` training episodes and `d` the cost limit.
 //!
-//! OmniSafe steps it once per epoch of 2,000 environment steps with a rate of 1e-5; here it
-//! steps once per finished training episode with `lambda_lr` (docs/decisions.md, "Lagrangian
-//! SAC": at OmniSafe's rate the multiplier would barely move within our budgets).
+//! OmniSafe steps it at every gradient step with a rate of 1e-5, after 200,000 warm-up steps;
+//! here it steps once per finished training episode with `lambda_lr` from SAC's first gradient
+//! step (docs/decisions-baselines.md, "Lagrangian SAC": about 5-10 times faster than OmniSafe's
+//! on Hopper, and without its warm-up, which would leave most of a 300k-step run unconstrained).
 
 use std::collections::VecDeque;
 
