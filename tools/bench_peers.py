@@ -189,9 +189,19 @@ def main() -> None:
         spread = {lib: f" ({min(rates[(lib, algo)]):.1f}-{max(rates[(lib, algo)]):.1f})" if a.repeats > 1 else ""
                   for lib in med}
         cells = [f"{med[lib]:.1f}{spread[lib]}" if lib in med else "-" for lib in libs]
-        cells += [f"{med['defender'] / med[x]:.2f}x" if x in med else "-" for x in libs[1:]]
+        # The ratio repeat by repeat (each pair ran back to back, under the same load): its
+        # median and spread, which the host's drift moves less than the medians' ratio.
+        def ratio(x: str) -> str:
+            pairs = [d / p for d, p in zip(rates[("defender", algo)], rates[(x, algo)])]
+            if not pairs:
+                return "-"
+            extra = f" ({min(pairs):.2f}-{max(pairs):.2f})" if len(pairs) > 1 else ""
+            return f"{statistics.median(pairs):.2f}x{extra}"
+
+        cells += [ratio(x) for x in libs[1:]]
         print(f"| {algo.upper()} | " + " | ".join(cells) + " |")
-    print("(steps/s: median (min-max) of the repeats)" if a.repeats > 1 else "(steps/s)")
+    print("(steps/s: median (min-max) of the repeats; ratios: defender / peer repeat by repeat, median (min-max))"
+          if a.repeats > 1 else "(steps/s)")
     for lib in libs:
         print(f"{lib}: {versions.get(lib, 'not run')}")
 

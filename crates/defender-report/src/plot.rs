@@ -163,7 +163,9 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         let demos: BTreeSet<_> = by_filter.keys().filter_map(|k| k.2).map(|f| f.num_demos).collect();
         let label = |(_, row, filter): (bool, &str, Option<&DefenderSettings>), seeds: usize| {
             let mut text = match (filter, crate::run::label_parts(row).1) {
-                (None, _) => format!("{} (bare)", crate::run::algo_display(row)),
+                // An unfiltered arm with its own tags (a baseline, a peer) is named by them.
+                (None, None) => format!("{} (bare)", crate::run::algo_display(row)),
+                (None, Some(_)) => crate::run::algo_display(row),
                 (Some(f), None) => f.name(),
                 (Some(f), Some(tags)) => format!("{}, {tags}", f.name()),
             };
