@@ -15,8 +15,8 @@ the four files of a run directory (docs/run-directory.md), each atomically:
   eval.csv      OmniSafe evaluates one deterministic episode at the end of each epoch (2,000
                 steps; evals.csv); they are grouped by --eval-every steps of training (default
                 10,000, our runs' evaluation interval), one row per group at its end: the mean,
-                std, mean length and mean cost of its episodes (5 per row at the defaults, where
-                ours have 10).
+                std, mean length and mean cost of its episodes (5 per row at the defaults, as
+                our runs of experiments/velocity.toml evaluate 5 every 10,000 steps).
   summary.json  the totals, as `defender train` writes them, with the task's episode cost limit.
 
 Only a finished run converts (run.json's "complete": true).
