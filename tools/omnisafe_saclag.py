@@ -40,6 +40,9 @@ import sys
 import time
 from importlib import metadata
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from omnisafe_run_dir import convert, write_atomic  # noqa: E402 (tools/ beside this file)
+
 EPISODE_HEADER = ["episode", "total_steps", "return", "length", "cost", "wall_seconds"]
 EVAL_HEADER = ["total_steps", "return", "length", "cost", "wall_seconds"]
 
@@ -215,20 +218,13 @@ def main() -> int:
         f"{float(ep_ret):.1f}, cost {float(ep_cost):.1f}, length {float(ep_len):.0f} -> {out}"
     )
     # The same folder as a run directory, for `defender report` beside our runs.
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    import omnisafe_run_dir
-
-    omnisafe_run_dir.convert(out, eval_every=10000)
+    convert(out, eval_every=10000)
     print(f"omnisafe_saclag: {out} is also a run directory (tools/omnisafe_run_dir.py)")
     return 0
 
 
 def write_json(path: str, value: dict) -> None:
-    tmp = f"{path}.tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        json.dump(value, f, indent=2)
-        f.write("\n")
-    os.replace(tmp, path)
+    write_atomic(path, json.dumps(value, indent=2) + "\n")
 
 
 if __name__ == "__main__":
