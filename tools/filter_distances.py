@@ -1,0 +1,145 @@
+#!/usr/bin/env python3
+"""Why a strategy fires where it does: its Safe and Unsafe values (SPEC sections 3-4) at every step
+of recorded episodes, and which demonstration decides each.
+
+`defender screen` says whether the filter ends an episode and when; this says how close the
+decision was and what drove it. For each recorded episode (`defender train --record-episodes`) and
+each step t, the trajectory so far s_0..s_t is compared with the demonstrations the way a run
+does (the strategy's windows and aggregations, state mode, optionally z-scored as
+`[defender.cost] scaling = "zscore"`: fitted on every element of both groups). Written per step:
+
+  episode, step, label        the recorded episode, t, and its label (unsafe / safe / neither:
+                              SPEC section 13 on a cost task, section 6 on a crash task)
+  safe, unsafe, ratio         Safe(tau), Unsafe(tau), Unsafe / Safe (the default profile filters
+                              when ratio <= 1 - margin, margin 0.02)
+  safe_demo, safe_len         the member that decided Safe under Min/Max (index within its group,
+  unsafe_demo, unsafe_len     the file's demonstrations first, then own episodes; its length in
+                              elements); -1 under Mean
+
+The groups are the file's demonstrations (SPEC's filter, `defender screen`'s `spec` variant) or,
+with `--own-episodes K`, also the recorded episodes themselves as they end, the way the
+keeps-learning profile lets a run's own episodes join (SPEC sections 11 and 13: an unsafe one
+joins the unsafe group, one that reached the safe demonstrations' horizon the safe group, at most
+K of each, the oldest replaced; scaled as the demonstrations, the scaling still fitted on them). Needs the `defender_rl` package (`make python` installs it into .deps/venv):
+
+  .deps/venv/bin/python tools/filter_distances.py --demos data/demos/SafetyHalfCheetahVelocity-v1.npz \\
+      --episodes results/velocity/SafetyHalfCheetahVelocity-v1/sac-bare-s0/episodes.npz \\
+      --strategy MinTrajW10/MaxTrajW10 --scaling zscore --every 5 --out distances.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import defender_rl
+
+AGGREGATIONS = ("Min", "Max", "Mean")
+
+
+def episodes(path: str) -> tuple[list[np.ndarray], np.ndarray, dict]:
+    """The state sequences [o_0..o_N] of a file's episodes, their labels, and its meta."""
+    with np.load(path) as z:
+        obs, lens, crashed = z["obs"].astype(np.float64), z["ep_len"], z["crashed"]
+        meta = json.loads(bytes(z["meta"]).decode()) if "meta" in z else {}
+    starts = np.concatenate([[0], np.cumsum(lens + 1)])
+    if starts[-1] != len(obs):
+        raise SystemExit(f"{path}: obs has {len(obs)} rows, ep_len says {starts[-1]}")
+    return [obs[starts[i] : starts[i + 1]] for i in range(len(lens))], crashed.astype(bool), meta
+
+
+def split_method(method: str) -> tuple[str, str]:
+    for agg in AGGREGATIONS:
+        if method.startswith(agg):
+            return agg, method[len(agg) :]
+    raise SystemExit(f"--strategy: {method!r} does not start with one of {AGGREGATIONS}")
+
+
+def decider(agg: str, costs: list[float]) -> int:
+    if agg == "Min":
+        return int(np.argmin(costs))
+    if agg == "Max":
+        return int(np.argmax(costs))
+    return -1
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--demos", required=True, help="the demonstration set (.npz)")
+    p.add_argument("--episodes", required=True, help="recorded episodes (.npz) to replay")
+    p.add_argument("--strategy", required=True, help="SAFE/UNSAFE, e.g. MinTrajW10/MaxTrajW10")
+    p.add_argument("--scaling", choices=("none", "zscore"), default="none", help="feature scaling (default: none)")
+    p.add_argument("--every", type=int, default=1, help="every k-th step, and each episode's last (default: 1)")
+    p.add_argument("--first", type=int, help="only the first N recorded episodes")
+    p.add_argument("--own-episodes", type=int, default=0, metavar="K",
+                   help="let the recorded episodes join the groups as they end, at most K per group (default: 0)")
+    p.add_argument("--out", required=True, help="the table (CSV), written atomically")
+    a = p.parse_args()
+    if a.every < 1:
+        p.error("--every must be >= 1")
+    if a.own_episodes < 0:
+        p.error("--own-episodes must be >= 0")
+    if "/" not in a.strategy:
+        p.error(f"--strategy {a.strategy!r}: expected SAFE/UNSAFE")
+    (safe_agg, _), (unsafe_agg, _) = (split_method(m) for m in a.strategy.split("/"))
+    safe_method, unsafe_method = a.strategy.split("/")
+
+    demos, crashed, _ = episodes(a.demos)
+    recorded, rec_crashed, _ = episodes(a.episodes)
+    if demos[0].shape[1] != recorded[0].shape[1]:
+        raise SystemExit(f"--episodes: observation dimension {recorded[0].shape[1]}, --demos: {demos[0].shape[1]}")
+    if a.scaling == "zscore":
+        rows = np.concatenate(demos)
+        mean, std = rows.mean(axis=0), rows.std(axis=0)
+        std[std < 1e-6] = 1.0
+        scale = lambda x: ((x - mean) / std).astype(np.float32)  # noqa: E731
+    else:
+        scale = lambda x: x.astype(np.float32)  # noqa: E731
+    safe = [scale(d) for d, c in zip(demos, crashed) if not c]
+    unsafe = [scale(d) for d, c in zip(demos, crashed) if c]
+    horizon = max(len(d) for d in safe)  # elements of a whole safe episode (N + 1)
+    own_safe: list[np.ndarray] = []
+    own_unsafe: list[np.ndarray] = []
+    n = len(recorded) if a.first is None else min(a.first, len(recorded))
+
+    out_dir = os.path.dirname(os.path.abspath(a.out))
+    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=".filter_distances.", suffix=".csv")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["episode", "step", "label", "safe", "unsafe", "ratio", "safe_demo", "safe_len", "unsafe_demo", "unsafe_len"])
+            for e in range(n):
+                x = scale(recorded[e])
+                last = len(x) - 2  # the last step's state s_t: o_{N-1} (o_N follows the last action)
+                label = "unsafe" if rec_crashed[e] else ("safe" if len(x) >= horizon else "neither")
+                safe_group, unsafe_group = safe + own_safe, unsafe + own_unsafe
+                for t in sorted(set(range(0, last + 1, a.every)) | {last}):
+                    s, s_costs = defender_rl.group_cost(x[: t + 1], safe_group, safe_method)
+                    u, u_costs = defender_rl.group_cost(x[: t + 1], unsafe_group, unsafe_method)
+                    i, j = decider(safe_agg, s_costs), decider(unsafe_agg, u_costs)
+                    w.writerow([e, t, label, f"{s:.6g}", f"{u:.6g}", f"{u / s:.6g}" if s > 0 else "inf",
+                                i, len(safe_group[i]) if i >= 0 else -1, j, len(unsafe_group[j]) if j >= 0 else -1])
+                if a.own_episodes and label != "neither":
+                    joined = own_unsafe if label == "unsafe" else own_safe
+                    joined.append(x)
+                    del joined[: max(0, len(joined) - a.own_episodes)]
+                print(f"\repisode {e + 1}/{n}", end="", file=sys.stderr, flush=True)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's file is private; the table is not
+        os.replace(tmp, a.out)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    print(f"\nwrote {a.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
