@@ -20,7 +20,10 @@ The groups are the file's demonstrations (SPEC's filter, `defender screen`'s `sp
 with `--own-episodes K`, also the recorded episodes themselves as they end, the way the
 keeps-learning profile lets a run's own episodes join (SPEC sections 11 and 13: an unsafe one
 joins the unsafe group, one that reached the safe demonstrations' horizon the safe group, at most
-K of each, the oldest replaced; scaled as the demonstrations, the scaling still fitted on them). Needs the `defender_rl` package (`make python` installs it into .deps/venv):
+K of each, the oldest replaced; scaled as the demonstrations, the scaling still fitted on them).
+On a recording of a DEFENDER run this is what the run's filter saw (its margin aside: compare
+`ratio` with 1 - margin). On a bare run's recording every unsafe episode joins, also those the
+filter would have ended before their violation (`defender screen` models that, this does not). Needs the `defender_rl` package (`make python` installs it into .deps/venv):
 
   .deps/venv/bin/python tools/filter_distances.py --demos data/demos/SafetyHalfCheetahVelocity-v1.npz \\
       --episodes results/velocity/SafetyHalfCheetahVelocity-v1/sac-bare-s0/episodes.npz \\
