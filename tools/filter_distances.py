@@ -16,6 +16,11 @@ does (the strategy's windows and aggregations, state mode, optionally z-scored a
   unsafe_demo, unsafe_len     the file's demonstrations first, then own episodes; its length in
                               elements); -1 under Mean
 
+With --per-episode, a second table: episode, label, steps (rows written), min_ratio and its
+min_ratio_step, first_filtered_step (the first step whose ratio <= 1 - --margin, -1: none: where
+a run with this margin would have ended the episode), and the lengths of the members that
+decided Safe and Unsafe at most of its steps (safe_len, unsafe_len).
+
 The groups are the file's demonstrations (SPEC's filter, `defender screen`'s `spec` variant) or,
 with `--own-episodes K`, also the recorded episodes themselves as they end, the way the
 keeps-learning profile lets a run's own episodes join (SPEC sections 11 and 13: an unsafe one
@@ -33,8 +38,10 @@ filter would have ended before their violation (`defender screen` models that, t
 from __future__ import annotations
 
 import argparse
+import collections
 import csv
 import json
+import math
 import os
 import sys
 import tempfile
@@ -72,6 +79,39 @@ def decider(agg: str, costs: list[float]) -> int:
     return -1
 
 
+PER_EPISODE = ["episode", "label", "steps", "min_ratio", "min_ratio_step", "first_filtered_step",
+               "safe_len", "unsafe_len"]
+
+
+def summary(rows: list[tuple], margin: float) -> list:
+    """One episode's row of --per-episode: its smallest ratio and where, the first step the
+    filter would end it at this margin (-1: none), and the lengths of the members that decided
+    Safe and Unsafe most often."""
+    ratios = [r[5] for r in rows]
+    k = int(np.argmin(ratios))
+    fired = [r[1] for r in rows if r[5] <= 1.0 - margin]
+    common = lambda col: collections.Counter(r[col] for r in rows).most_common(1)[0][0]  # noqa: E731
+    return [rows[0][0], rows[0][2], len(rows), f"{ratios[k]:.4f}", rows[k][1], fired[0] if fired else -1,
+            common(7), common(9)]
+
+
+def write_csv(path: str, header: list[str], rows) -> None:
+    """Atomically: a temporary file beside `path`, renamed over it when complete."""
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".filter_distances.")
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(header)
+            w.writerows(rows)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's file is private; the table is not
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--demos", required=True, help="the demonstration set (.npz)")
@@ -82,12 +122,17 @@ def main() -> int:
     p.add_argument("--first", type=int, help="only the first N recorded episodes")
     p.add_argument("--own-episodes", type=int, default=0, metavar="K",
                    help="let the recorded episodes join the groups as they end, at most K per group (default: 0)")
-    p.add_argument("--out", required=True, help="the table (CSV), written atomically")
+    p.add_argument("--margin", type=float, default=0.02,
+                   help="for --per-episode: the filter fires when ratio <= 1 - margin (default: 0.02, the default profile's)")
+    p.add_argument("--out", required=True, help="the per-step table (CSV), written atomically")
+    p.add_argument("--per-episode", metavar="CSV", help="also a table with one row per episode (see above)")
     a = p.parse_args()
     if a.every < 1:
         p.error("--every must be >= 1")
     if a.own_episodes < 0:
         p.error("--own-episodes must be >= 0")
+    if not 0.0 <= a.margin < 1.0:
+        p.error("--margin must be in [0, 1)")
     if "/" not in a.strategy:
         p.error(f"--strategy {a.strategy!r}: expected SAFE/UNSAFE")
     (safe_agg, _), (unsafe_agg, _) = (split_method(m) for m in a.strategy.split("/"))
@@ -111,35 +156,31 @@ def main() -> int:
     own_unsafe: list[np.ndarray] = []
     n = len(recorded) if a.first is None else min(a.first, len(recorded))
 
-    out_dir = os.path.dirname(os.path.abspath(a.out))
-    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=".filter_distances.", suffix=".csv")
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(["episode", "step", "label", "safe", "unsafe", "ratio", "safe_demo", "safe_len", "unsafe_demo", "unsafe_len"])
-            for e in range(n):
-                x = scale(recorded[e])
-                last = len(x) - 2  # the last step's state s_t: o_{N-1} (o_N follows the last action)
-                label = "unsafe" if rec_crashed[e] else ("safe" if len(x) >= horizon else "neither")
-                safe_group, unsafe_group = safe + own_safe, unsafe + own_unsafe
-                for t in sorted(set(range(0, last + 1, a.every)) | {last}):
-                    s, s_costs = defender_rl.group_cost(x[: t + 1], safe_group, safe_method)
-                    u, u_costs = defender_rl.group_cost(x[: t + 1], unsafe_group, unsafe_method)
-                    i, j = decider(safe_agg, s_costs), decider(unsafe_agg, u_costs)
-                    w.writerow([e, t, label, f"{s:.6g}", f"{u:.6g}", f"{u / s:.6g}" if s > 0 else "inf",
-                                i, len(safe_group[i]) if i >= 0 else -1, j, len(unsafe_group[j]) if j >= 0 else -1])
-                if a.own_episodes and label != "neither":
-                    joined = own_unsafe if label == "unsafe" else own_safe
-                    joined.append(x)
-                    del joined[: max(0, len(joined) - a.own_episodes)]
-                print(f"\repisode {e + 1}/{n}", end="", file=sys.stderr, flush=True)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's file is private; the table is not
-        os.replace(tmp, a.out)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    header = ["episode", "step", "label", "safe", "unsafe", "ratio", "safe_demo", "safe_len", "unsafe_demo", "unsafe_len"]
+    steps, per_episode = [], []
+    for e in range(n):
+        x = scale(recorded[e])
+        last = len(x) - 2  # the last step's state s_t: o_{N-1} (o_N follows the last action)
+        label = "unsafe" if rec_crashed[e] else ("safe" if len(x) >= horizon else "neither")
+        safe_group, unsafe_group = safe + own_safe, unsafe + own_unsafe
+        mine = []
+        for t in sorted(set(range(0, last + 1, a.every)) | {last}):
+            s, s_costs = defender_rl.group_cost(x[: t + 1], safe_group, safe_method)
+            u, u_costs = defender_rl.group_cost(x[: t + 1], unsafe_group, unsafe_method)
+            i, j = decider(safe_agg, s_costs), decider(unsafe_agg, u_costs)
+            mine.append((e, t, label, s, u, u / s if s > 0 else math.inf,
+                         i, len(safe_group[i]) if i >= 0 else -1, j, len(unsafe_group[j]) if j >= 0 else -1))
+        steps += mine
+        per_episode.append(summary(mine, a.margin))
+        if a.own_episodes and label != "neither":
+            joined = own_unsafe if label == "unsafe" else own_safe
+            joined.append(x)
+            del joined[: max(0, len(joined) - a.own_episodes)]
+        print(f"\repisode {e + 1}/{n}", end="", file=sys.stderr, flush=True)
+    write_csv(a.out, header, ([*r[:3], f"{r[3]:.6g}", f"{r[4]:.6g}", f"{r[5]:.6g}", *r[6:]] for r in steps))
+    if a.per_episode:
+        write_csv(a.per_episode, PER_EPISODE, per_episode)
+        print(f"\nwrote {a.per_episode}", end="", file=sys.stderr)
     print(f"\nwrote {a.out}", file=sys.stderr)
     return 0
 

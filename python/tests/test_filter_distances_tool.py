@@ -70,13 +70,24 @@ def test_tool_gives_the_online_filters_costs_with_own_episodes(tmp_path, drift_s
     recorded = tmp_path / "episodes.npz"
     defender_rl.EpisodeSet.from_episodes(episodes, env_id="DefenderTest/Drift-v0").save(recorded)
 
+    per_episode = tmp_path / "per-episode.csv"
     rows = run_tool(tmp_path, demos, recorded, "--strategy", "MeanBoth/MeanBoth", "--scaling", scaling,
-                    "--own-episodes", "1")
+                    "--own-episodes", "1", "--margin", "0.5", "--per-episode", str(per_episode))
     for e, (safe, unsafe) in enumerate(costs):
         mine = [r for r in rows if int(r["episode"]) == e]
         assert [int(r["step"]) for r in mine] == list(range(len(safe)))
         np.testing.assert_allclose([float(r["safe"]) for r in mine], safe, rtol=1e-4)
         np.testing.assert_allclose([float(r["unsafe"]) for r in mine], unsafe, rtol=1e-4)
+
+    with open(per_episode, newline="") as f:
+        summary = list(csv.DictReader(f))
+    assert [r["label"] for r in summary] == ["unsafe", "safe", "unsafe", "safe"]
+    for e, (safe, unsafe) in enumerate(costs):
+        ratio = unsafe / safe
+        assert float(summary[e]["min_ratio"]) == pytest.approx(ratio.min(), rel=1e-3)
+        assert int(summary[e]["min_ratio_step"]) == int(np.argmin(ratio))
+        fired = np.flatnonzero(ratio <= 0.5)
+        assert int(summary[e]["first_filtered_step"]) == (int(fired[0]) if len(fired) else -1)
 
     # Without --own-episodes the groups are the file's alone: later episodes differ.
     alone = run_tool(tmp_path, demos, recorded, "--strategy", "MeanBoth/MeanBoth", "--scaling", scaling)
