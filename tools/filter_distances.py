@@ -40,7 +40,6 @@ from __future__ import annotations
 import argparse
 import collections
 import csv
-import json
 import math
 import os
 import sys
@@ -53,15 +52,12 @@ import defender_rl
 AGGREGATIONS = ("Min", "Max", "Mean")
 
 
-def episodes(path: str) -> tuple[list[np.ndarray], np.ndarray, dict]:
-    """The state sequences [o_0..o_N] of a file's episodes, their labels, and its meta."""
-    with np.load(path) as z:
-        obs, lens, crashed = z["obs"].astype(np.float64), z["ep_len"], z["crashed"]
-        meta = json.loads(bytes(z["meta"]).decode()) if "meta" in z else {}
-    starts = np.concatenate([[0], np.cumsum(lens + 1)])
-    if starts[-1] != len(obs):
-        raise SystemExit(f"{path}: obs has {len(obs)} rows, ep_len says {starts[-1]}")
-    return [obs[starts[i] : starts[i + 1]] for i in range(len(lens))], crashed.astype(bool), meta
+def episodes(path: str) -> tuple[list[np.ndarray], np.ndarray]:
+    """The state sequences [o_0..o_N] of a file's episodes and their labels, read (and checked,
+    with errors naming the file and array) by the package's own loader."""
+    found = defender_rl.EpisodeSet.load(path)
+    eps = [found.episode(i) for i in range(len(found))]
+    return [np.asarray(e["obs"], dtype=np.float64) for e in eps], np.array([bool(e["crashed"]) for e in eps])
 
 
 def split_method(method: str) -> tuple[str, str]:
@@ -138,8 +134,8 @@ def main() -> int:
     (safe_agg, _), (unsafe_agg, _) = (split_method(m) for m in a.strategy.split("/"))
     safe_method, unsafe_method = a.strategy.split("/")
 
-    demos, crashed, _ = episodes(a.demos)
-    recorded, rec_crashed, _ = episodes(a.episodes)
+    demos, crashed = episodes(a.demos)
+    recorded, rec_crashed = episodes(a.episodes)
     if demos[0].shape[1] != recorded[0].shape[1]:
         raise SystemExit(f"--episodes: observation dimension {recorded[0].shape[1]}, --demos: {demos[0].shape[1]}")
     if a.scaling == "zscore":
