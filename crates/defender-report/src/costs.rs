@@ -1,7 +1,7 @@
 //! The safe-RL field's cost measures, for a task whose every step may cost (Safety-Gymnasium's
 //! velocity tasks) and whose runs are held to an episode cost limit (25 there, OmniSafe's
-//! benchmark setting): the cost rate of training, the evaluation cost, and the share of training
-//! episodes over the limit. A crash task costs at most 1 an episode; it is read through its
+//! benchmark setting): the cost rate of training, the evaluation cost, and the training episodes
+//! over the limit, counted and as a share. A crash task costs at most 1 an episode; it is read through its
 //! crashes instead (`crate::violations`) and has no limit here.
 //!
 //! The limits are not this crate's to know: they belong to the task registry of
@@ -64,6 +64,8 @@ pub struct CostColumns {
     /// Evaluation cost (last-10): [`Run::eval_cost`]; `None` when no run of the row has an
     /// evaluation with a cost.
     pub eval_cost: Option<Estimate>,
+    /// Episodes over the limit, counted: [`Run::over_limit`].
+    pub over_limit: Estimate,
     /// % episodes over the limit: [`Run::over_limit_pct`].
     pub over_limit_pct: Estimate,
 }
@@ -77,6 +79,7 @@ impl CostColumns {
             limit,
             cost_rate: Estimate::of(&values(&|r| r.violations().cost_rate))?,
             eval_cost: Estimate::of(&eval),
+            over_limit: Estimate::of(&values(&|r| r.over_limit(limit) as f64))?,
             over_limit_pct: Estimate::of(&values(&|r| r.over_limit_pct(limit)))?,
         })
     }
@@ -93,11 +96,18 @@ impl Run {
         (!last.is_empty()).then(|| last.iter().sum::<f64>() / last.len() as f64)
     }
 
-    /// % episodes over the limit: the training episodes whose cost exceeds `limit` (strictly:
-    /// an episode at the limit kept the constraint) / all training episodes x 100; 0 for a run
-    /// without episodes.
+    /// Episodes over the limit: the training episodes whose cost exceeds `limit` (strictly: an
+    /// episode at the limit kept the constraint).
+    pub fn over_limit(&self, limit: f64) -> usize {
+        self.episodes.iter().filter(|e| e.cost > limit).count()
+    }
+
+    /// % episodes over the limit: [`Run::over_limit`] / all training episodes x 100; 0 for a run
+    /// without episodes. Like the paper's % Crash, the episodes a filter ends join the
+    /// denominator, so a filter that cuts episodes short lowers it without fewer violations;
+    /// [`Run::over_limit`] counts them.
     pub fn over_limit_pct(&self, limit: f64) -> f64 {
-        let over = self.episodes.iter().filter(|e| e.cost > limit).count();
+        let over = self.over_limit(limit);
         if self.episodes.is_empty() { 0.0 } else { 100.0 * over as f64 / self.episodes.len() as f64 }
     }
 }

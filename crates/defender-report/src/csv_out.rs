@@ -21,6 +21,7 @@ crashes_mean,crashes_std,crashes_ci_lo,crashes_ci_hi,\
 crashes_per_1k_env_steps_mean,crashes_per_1k_env_steps_std,crashes_per_1k_env_steps_ci_lo,crashes_per_1k_env_steps_ci_hi,\
 episode_cost_limit,cost_rate_mean,cost_rate_std,cost_rate_ci_lo,cost_rate_ci_hi,\
 eval_cost_last10_mean,eval_cost_last10_std,eval_cost_last10_ci_lo,eval_cost_last10_ci_hi,\
+over_limit_mean,over_limit_std,over_limit_ci_lo,over_limit_ci_hi,\
 over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
@@ -87,6 +88,7 @@ pub(crate) fn csv(table: &Table) -> String {
         for e in [
             costs.map(|c| &c.cost_rate),
             costs.and_then(|c| c.eval_cost.as_ref()),
+            costs.map(|c| &c.over_limit),
             costs.map(|c| &c.over_limit_pct),
         ] {
             fields.extend(mean_std(e));

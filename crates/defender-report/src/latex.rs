@@ -32,9 +32,9 @@ fn tex_escape(text: &str) -> String {
 /// Crashes (over the run), % Time.
 const PER_TASK: usize = 5;
 
-/// Columns a task with an episode cost limit adds: Cost rate, Eval cost (last-10), % episodes
-/// over the limit.
-const PER_COST_TASK: usize = 3;
+/// Columns a task with an episode cost limit adds: Cost rate, Eval cost (last-10), episodes over
+/// the limit (counted, and in %).
+const PER_COST_TASK: usize = 4;
 
 /// The episode cost limit of the rows of task `env` at `budget`, `None` for a crash task.
 fn limit_of(rows: &[&Row], env: &str, budget: Budget) -> Option<f64> {
@@ -67,7 +67,8 @@ pub(crate) fn latex(table: &Table) -> String {
         let cost_caption = if limits.iter().any(Option::is_some) {
             " Cost rate: total training cost / environment steps of training (filtered steps not \
              counted); Eval cost (last-10): mean evaluation cost over the last 10 evaluations; \
-             \\% cost $>$ L: training episodes whose cost exceeds the episode cost limit L."
+             Cost $>$ L: training episodes whose cost exceeds the episode cost limit L, over the run; \
+             \\% cost $>$ L: the same / all training episodes (the filter's episodes join the denominator)."
         } else {
             ""
         };
@@ -96,7 +97,10 @@ pub(crate) fn latex(table: &Table) -> String {
         for limit in &limits {
             out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & Crashes");
             if let Some(limit) = limit {
-                let _ = write!(out, " & Cost rate & Eval cost (last-10) & \\% cost $>$ {limit}");
+                let _ = write!(
+                    out,
+                    " & Cost rate & Eval cost (last-10) & Cost $>$ {limit} & \\% cost $>$ {limit}"
+                );
             }
             out.push_str(" & \\% Time");
         }
@@ -174,9 +178,10 @@ fn cost_cells(row: &Row) -> String {
     };
     let costs = row.costs.as_ref();
     format!(
-        " & {} & {} & {}",
+        " & {} & {} & {} & {}",
         cell(costs.map(|c| &c.cost_rate), 3, 3),
         cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
+        cell(costs.map(|c| &c.over_limit), 0, 1),
         cell(costs.map(|c| &c.over_limit_pct), 1, 1)
     )
 }

@@ -36,8 +36,10 @@ Cost columns (tasks with a per-step cost and an episode cost limit L: Safety-Gym
 tasks, L = 25 as OmniSafe's benchmarks): Cost rate: total cost of the training episodes / \
 environment steps of training, a filtered step not counting (it never reaches the environment and \
 costs 0). Eval cost (last-10): the evaluation episodes' mean cost, averaged over the run's last 10 \
-evaluations. % episodes cost > L: training episodes whose summed cost exceeds L / all training \
-episodes x 100. Each over seeds as the columns above.
+evaluations. Episodes cost > L: training episodes whose summed cost exceeds L, counted over the \
+run. % episodes cost > L: the same / all training episodes x 100; like % Crash, the episodes a \
+filter ends join its denominator, so it can fall while the count rises. Each over seeds as the \
+columns above.
 ";
 
 /// The Markdown report of `table`.
@@ -72,10 +74,12 @@ pub(crate) fn markdown(table: &Table) -> String {
                 .rows_for(mode)
                 .filter(|r| r.env == env && r.budget == budget)
                 .find_map(|r| r.costs.map(|c| c.limit));
-            let over = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
+            let over = limit.map(|l| format!("Episodes cost > {l}")).unwrap_or_default();
+            let over_pct = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
             if limit.is_some() {
                 let at = header.len() - 3;
-                header.splice(at..at, ["Cost rate", "Eval cost (last-10)", over.as_str()]);
+                let cost = ["Cost rate", "Eval cost (last-10)", over.as_str(), over_pct.as_str()];
+                header.splice(at..at, cost);
             }
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
             for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
@@ -100,6 +104,7 @@ pub(crate) fn markdown(table: &Table) -> String {
                     line.extend([
                         costs.map_or_else(|| "-".into(), |c| pm_ci_to(&c.cost_rate, 3, 3)),
                         pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
+                        pm_ci_or_dash(costs.map(|c| &c.over_limit), 0),
                         pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
                     ]);
                 }

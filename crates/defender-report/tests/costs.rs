@@ -74,7 +74,11 @@ fn velocity_runs_get_the_cost_columns_with_hand_computed_values() {
     let eval = costs.eval_cost.unwrap();
     assert!(close(eval.stat.mean, 9.5 / 3.0), "{eval:?}");
     assert_eq!((eval.ci.lo, eval.ci.hi), (0.0, 5.5));
-    // % episodes over 25: 33.3, 33.3, 0 -> mean 22.2, std (100/3) sqrt(2)/3.
+    // Episodes over 25: 1 of 3, 1 of 3, 0 of 3 -> counts 1, 1, 0; % 33.3, 33.3, 0 -> mean 22.2,
+    // std (100/3) sqrt(2)/3.
+    let count = costs.over_limit;
+    assert!(close(count.stat.mean, 2.0 / 3.0) && close(count.stat.std, 2f64.sqrt() / 3.0), "{count:?}");
+    assert_eq!((count.ci.lo, count.ci.hi), (0.0, 1.0));
     let over = costs.over_limit_pct;
     assert!(close(over.stat.mean, 200.0 / 9.0) && close(over.stat.std, 100.0 / 3.0 * 2f64.sqrt() / 3.0));
     assert!(close(over.ci.hi, 100.0 / 3.0) && over.ci.lo == 0.0);
@@ -95,6 +99,7 @@ fn velocity_runs_get_the_cost_columns_with_hand_computed_values() {
             "Crashes / 1k env steps",
             "Cost rate",
             "Eval cost (last-10)",
+            "Episodes cost > 25",
             "% episodes cost > 25",
             "Standing %",
             "% Time",
@@ -104,7 +109,8 @@ fn velocity_runs_get_the_cost_columns_with_hand_computed_values() {
     let row = cells(md.lines().find(|l| l.starts_with("| SAC")).unwrap());
     assert_eq!(row[9], "0.107 ± 0.079 [0.000, 0.187]", "{md}");
     assert_eq!(row[10], "3.2 ± 2.3 [0.0, 5.5]");
-    assert_eq!(row[11], "22.2 ± 15.7 [0.0, 33.3]");
+    assert_eq!(row[11], "1 ± 0.5 [0, 1]");
+    assert_eq!(row[12], "22.2 ± 15.7 [0.0, 33.3]");
     assert!(md.contains("Eval cost (last-10): the evaluation episodes' mean cost"), "the legend says it");
 
     let csv = render(&table, Format::Csv);
@@ -117,13 +123,16 @@ fn velocity_runs_get_the_cost_columns_with_hand_computed_values() {
     assert!(close(num("cost_rate_mean"), 96.0 / 900.0));
     assert!(close(num("eval_cost_last10_mean"), 9.5 / 3.0));
     assert_eq!(num("eval_cost_last10_ci_hi"), 5.5);
+    assert!(close(num("over_limit_mean"), 2.0 / 3.0));
+    assert_eq!(num("over_limit_ci_hi"), 1.0);
     assert!(close(num("over_limit_pct_mean"), 200.0 / 9.0));
     assert!(close(num("over_limit_pct_ci_hi"), 100.0 / 3.0));
 
     let tex = render(&table, Format::Latex);
-    assert!(tex.contains("\\multicolumn{8}{c}{SafetyHopperVelocity-v1}"), "{tex}");
-    assert!(tex.contains("& Cost rate & Eval cost (last-10) & \\% cost $>$ 25 & \\% Time"), "{tex}");
-    assert!(tex.contains("& 0.107$\\pm$0.079 & 3.2$\\pm$2.3 & 22.2$\\pm$15.7 & "), "{tex}");
+    assert!(tex.contains("\\multicolumn{9}{c}{SafetyHopperVelocity-v1}"), "{tex}");
+    let cost_header = "& Cost rate & Eval cost (last-10) & Cost $>$ 25 & \\% cost $>$ 25 & \\% Time";
+    assert!(tex.contains(cost_header), "{tex}");
+    assert!(tex.contains("& 0.107$\\pm$0.079 & 3.2$\\pm$2.3 & 1$\\pm$0.5 & 22.2$\\pm$15.7 & "), "{tex}");
 }
 
 #[test]
@@ -140,7 +149,7 @@ fn the_cost_rate_leaves_filtered_steps_out() {
     let table = table(root.path(), &limits());
     let costs = table.rows[0].costs.unwrap();
     assert!(close(costs.cost_rate.stat.mean, 40.0 / 399.0), "{costs:?}");
-    assert_eq!(costs.over_limit_pct.stat.mean, 25.0);
+    assert_eq!((costs.over_limit.stat.mean, costs.over_limit_pct.stat.mean), (1.0, 25.0));
     assert_eq!(costs.eval_cost.unwrap().stat.mean, 1.0);
     let run = &load_runs(&[root.path()]).unwrap().runs[0];
     let curve = run.cumulative_cost();
@@ -213,14 +222,14 @@ fn a_mixed_report_gives_the_cost_columns_to_the_cost_task_only() {
     let headers: Vec<Vec<String>> = md.lines().filter(|l| l.starts_with("| Algorithm")).map(cells).collect();
     assert_eq!(headers.len(), 2, "{md}");
     assert_eq!(headers[0].len(), 12, "Hopper-v5 first, its columns as ever: {:?}", headers[0]);
-    assert_eq!(headers[1].len(), 15, "{:?}", headers[1]);
+    assert_eq!(headers[1].len(), 16, "{:?}", headers[1]);
     let tex = render(&table, Format::Latex);
     assert!(
-        tex.contains("\\multicolumn{5}{c}{Hopper-v5} & \\multicolumn{8}{c}{SafetyHopperVelocity-v1}"),
+        tex.contains("\\multicolumn{5}{c}{Hopper-v5} & \\multicolumn{9}{c}{SafetyHopperVelocity-v1}"),
         "{tex}"
     );
-    assert!(tex.contains("\\cmidrule(lr){3-7} \\cmidrule(lr){8-15}"), "{tex}");
-    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(13))), "{tex}");
+    assert!(tex.contains("\\cmidrule(lr){3-7} \\cmidrule(lr){8-16}"), "{tex}");
+    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(14))), "{tex}");
 }
 
 #[test]

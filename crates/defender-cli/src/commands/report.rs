@@ -29,8 +29,10 @@ same task, algorithm, budget and seed x 100 (\"-\" without a bare run).
 A task with a per-step cost and an episode cost limit (the Safety*Velocity-v1 tasks: 25, OmniSafe's
 benchmark setting on Safety-Gymnasium) adds: Cost rate (training cost / environment steps,
 filtered steps not counted), Eval cost (last-10: the evaluations' mean cost over the last 10),
-and % episodes cost > 25 (training episodes over the limit); --plots adds *_cost (cumulative
-training cost) and *_eval_cost (evaluation cost, the limit drawn across).
+Episodes cost > 25 (training episodes over the limit, counted) and % episodes cost > 25 (the
+same / all training episodes: like % Crash, a filter's own episodes join its denominator);
+--plots adds *_cost (cumulative training cost) and *_eval_cost (evaluation cost, the limit drawn
+across).
 
 A run directory that is not complete is left out and listed, with its state: still running
 (its lock is held), stopped (a checkpoint to resume from) or broken; --strict makes that an
