@@ -27,7 +27,8 @@ the row's seeds (population std, ddof = 0) [95% percentile bootstrap confidence 
 mean: the seeds resampled with replacement 50,000 times, fixed seed; with 3 seeds it is coarse, \
 and rows whose intervals overlap are not told apart]. Seeds: runs in the row. % Time: \
 wall-clock time / that of the bare run with the same task, algorithm, budget and seed x 100, \
-averaged over seeds.
+averaged over seeds; a row without the filter that changes the agent (a penalty, a Lagrangian, \
+Recovery RL, the demonstrations alone, a peer's SAC) is timed against plain bare SAC or TD3.
 ";
 
 /// What the cost columns mean, printed under the legend when a table has them.

@@ -127,14 +127,20 @@ impl Table {
             let seeds: Vec<u64> = group.iter().map(|r| r.config.seed).collect();
             let mut missing = BTreeSet::new();
             let mut ratios = Vec::new();
-            // The bare run of the same agent (`sac (authors)` for the authors' profile), else
-            // plain bare SAC or TD3 (an arm whose label names its filter options has no bare run
-            // of its own: its agent is the algorithm's).
+            // A filtered row: the bare run of the same agent (`sac (authors)` for the authors'
+            // profile), else plain bare SAC or TD3 (an arm whose label names its filter options
+            // has no bare run of its own: its agent is the algorithm's). An unfiltered row that
+            // changes the agent (a baseline: penalty, Lagrangian, Recovery RL, the demonstrations
+            // alone; a peer's SAC; the authors' SAC): plain bare SAC or TD3, else itself, so that
+            // what the change costs shows rather than a row timed against itself.
             let base = crate::run::label_parts(&algo).0;
+            let unfiltered = group[0].config.filter.is_none();
             for run in &group {
                 let seed = run.config.seed;
                 let own = bare.get(&(env.as_str(), algo.as_str(), budget, seed));
-                match own.or_else(|| bare.get(&(env.as_str(), base, budget, seed))) {
+                let plain = bare.get(&(env.as_str(), base, budget, seed));
+                let reference = if unfiltered { plain.or(own) } else { own.or(plain) };
+                match reference {
                     Some(bare_wall) => ratios.push(run.summary.wall_seconds / bare_wall * 100.0),
                     None => {
                         missing.insert(run.config.seed);

@@ -424,3 +424,24 @@ fn an_arm_without_a_bare_run_of_its_own_label_is_timed_against_the_algorithm() {
     assert_eq!(arm.algo, "sac (demos+BC, margin0.02)");
     assert!(close(&arm.time_pct.unwrap(), 150.0, 0.0), "{:?}", arm.time_pct);
 }
+
+#[test]
+fn a_baseline_without_the_filter_is_timed_against_plain_bare_sac() {
+    // A penalty arm is its own row without a filter; timed against itself it would read 100
+    // whatever its networks cost. Plain bare SAC of the same seed is its yardstick.
+    let root = tempfile::tempdir().unwrap();
+    RunSpec::new("sac", 0, None).wall(10.0).write(root.path());
+    let dir = RunSpec::new("sac", 0, None).wall(25.0).write(&root.path().join("penalty"));
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    std::fs::write(
+        dir.join("config.toml"),
+        format!("{config}\n[safety]\nmethod = \"penalty\"\npenalty = 1.0\n"),
+    )
+    .unwrap();
+    let table = Table::from_runs(&load_runs(&[root.path()]).unwrap().runs);
+    let arm = table.rows.iter().find(|r| r.algo != "sac").unwrap();
+    assert_eq!(arm.algo, "sac (penalty 1)");
+    assert!(close(&arm.time_pct.unwrap(), 250.0, 0.0), "{:?}", arm.time_pct);
+    let bare = table.rows.iter().find(|r| r.algo == "sac").unwrap();
+    assert!(close(&bare.time_pct.unwrap(), 100.0, 0.0), "{:?}", bare.time_pct);
+}

@@ -24,7 +24,9 @@ Per task x algorithm x strategy, over seeds: Acc Reward (final eval) as SPEC 6; 
 evaluations); % Crash; Standing % (evaluations that stood still); each as mean ± std
 (population std, ddof = 0) [95% percentile bootstrap interval over seeds, 50,000 resamples,
 fixed seed], with the number of seeds. % Time: wall-clock time / that of the bare run with the
-same task, algorithm, budget and seed x 100 (\"-\" without a bare run).
+same task, algorithm, budget and seed x 100 (\"-\" without a bare run); a row without the filter
+that changes the agent (penalty, Lagrangian, Recovery RL, demos alone, a peer's SAC) is timed
+against plain bare SAC or TD3.
 
 A task with a per-step cost and an episode cost limit (the Safety*Velocity-v1 tasks: 25, OmniSafe's
 benchmark setting on Safety-Gymnasium) adds: Cost rate (training cost / environment steps,
