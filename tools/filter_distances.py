@@ -16,7 +16,8 @@ does (the strategy's windows and aggregations, state mode, optionally z-scored a
   unsafe_demo, unsafe_len     the file's demonstrations first, then own episodes; its length in
                               elements); -1 under Mean
 
-With --per-episode, a second table: episode, label, steps (rows written), min_ratio and its
+With --per-episode, a second table: episode, label, steps (replayed: to the violating step for an
+episode that passed the limit; not the rows --every writes), min_ratio and its
 min_ratio_step, first_filtered_step (the first step whose ratio <= 1 - --margin, -1: none: where
 a run with this margin would have ended the episode), and the lengths of the members that
 decided Safe and Unsafe at most of its steps (safe_len, unsafe_len).
@@ -87,7 +88,8 @@ def summary(rows: list[tuple], margin: float) -> list:
     k = int(np.argmin(ratios))
     fired = [r[1] for r in rows if r[5] <= 1.0 - margin]
     common = lambda col: collections.Counter(r[col] for r in rows).most_common(1)[0][0]  # noqa: E731
-    return [rows[0][0], rows[0][2], len(rows), f"{ratios[k]:.4f}", rows[k][1], fired[0] if fired else -1,
+    # steps: the steps replayed (the last t + 1), not the rows written, which --every thins.
+    return [rows[0][0], rows[0][2], rows[-1][1] + 1, f"{ratios[k]:.4f}", rows[k][1], fired[0] if fired else -1,
             common(7), common(9)]
 
 

@@ -94,6 +94,13 @@ def test_tool_gives_the_online_filters_costs_with_own_episodes(tmp_path, drift_s
     assert len(alone) == len(rows)
     assert any(a["unsafe"] != b["unsafe"] for a, b in zip(alone, rows) if int(a["episode"]) >= 1)
 
+    # --every thins the rows, not the per-episode table's count of steps replayed.
+    thinned = run_tool(tmp_path, demos, recorded, "--strategy", "MeanBoth/MeanBoth", "--scaling", scaling,
+                       "--every", "4", "--per-episode", str(per_episode))
+    assert len(thinned) < len(rows)
+    with open(per_episode, newline="") as f:
+        assert [int(r["steps"]) for r in csv.DictReader(f)] == [len(safe) for safe, _ in costs]
+
 
 def test_tool_refuses_a_bad_strategy(tmp_path, drift_set):
     demos = tmp_path / "demos.npz"
