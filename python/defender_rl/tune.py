@@ -28,6 +28,7 @@ Tune's checkpoints carry the runs between nodes).
 from __future__ import annotations
 
 import ctypes
+import glob
 import json
 import os
 import shutil
@@ -121,18 +122,17 @@ def _progress(run_dir: Path) -> dict[str, Any]:
     return metrics
 
 
-def _stage_checkpoint(run_dir: Path) -> tuple[float, str] | None:
-    """A copy of the run's current checkpoint and config.toml for Tune, or None if there is no
-    checkpoint or it was being replaced while copied (the next poll tries again)."""
-    from ray import tune
-
+def _stage_checkpoint(run_dir: Path, staging: Path, prefix: str) -> tuple[float, str] | None:
+    """A copy of the run's current checkpoint and config.toml for Tune, in a new directory under
+    ``staging``, or None if there is no checkpoint or it was being replaced while copied (the next
+    poll tries again). The caller removes the copy once Tune has its own."""
     # Written last into a checkpoint: its time identifies one complete checkpoint.
     manifest = run_dir / "checkpoint" / "manifest.json"
     try:
         before = manifest.stat().st_mtime_ns
     except OSError:
         return None
-    stage = tempfile.mkdtemp(prefix="defender-tune-")
+    stage = tempfile.mkdtemp(prefix=prefix, dir=staging)
     try:
         shutil.copytree(run_dir / "checkpoint", Path(stage) / "checkpoint")
         shutil.copy2(run_dir / "config.toml", Path(stage) / "config.toml")
@@ -152,8 +152,13 @@ def _trial(config: dict[str, Any]) -> None:
     run_dir = Path(run["dir"])
     sweep = Path(config["sweep_dir"]) / ".sweep"
     flat = run["name"].replace("/", "__")
-    for sub in ("configs", "logs"):
+    for sub in ("configs", "logs", "staging"):
         (sweep / sub).mkdir(parents=True, exist_ok=True)
+    # Copies of checkpoints on their way to Tune. A trial's worker killed mid-report leaves its
+    # copy behind; the restarted trial removes it (one trial per run, so none is in use).
+    staging, prefix = sweep / "staging", f"{flat}-"
+    for stale in staging.glob(f"{glob.escape(prefix)}*"):
+        shutil.rmtree(stale, ignore_errors=True)
     config_path = sweep / "configs" / f"{flat}.toml"
     config_path.write_text(run["config"])
     run_dir.parent.mkdir(parents=True, exist_ok=True)
@@ -176,15 +181,18 @@ def _trial(config: dict[str, Any]) -> None:
         proc = subprocess.Popen(args, stdout=log, stderr=log, stdin=subprocess.DEVNULL, env=env, preexec_fn=_die_with_parent)
     last_checkpoint = None
     last_metrics = None
+    # The staged copy not yet handed to Tune. tune.report persists a checkpoint by copying it
+    # before it returns and leaves the directory it was given: that one is ours to remove.
+    stage = None
     try:
         while True:
             code = proc.poll()
             metrics = _progress(run_dir)
-            staged = _stage_checkpoint(run_dir)
+            staged = _stage_checkpoint(run_dir, staging, prefix)
             checkpoint = None
             if staged is not None and staged[0] != last_checkpoint:
-                last_checkpoint = staged[0]
-                checkpoint = tune.Checkpoint.from_directory(staged[1])
+                last_checkpoint, stage = staged
+                checkpoint = tune.Checkpoint.from_directory(stage)
             elif staged is not None:
                 shutil.rmtree(staged[1], ignore_errors=True)
             if code is not None:
@@ -192,6 +200,9 @@ def _trial(config: dict[str, Any]) -> None:
             if checkpoint is not None or metrics != last_metrics:
                 tune.report(metrics, checkpoint=checkpoint)
                 last_metrics = metrics
+            if stage is not None:
+                shutil.rmtree(stage, ignore_errors=True)
+                stage = None
             time.sleep(config.get("poll_seconds", 2.0))
         if code != 0:
             tail = (sweep / "logs" / f"{flat}.log").read_text().strip().splitlines()[-5:]
@@ -203,6 +214,8 @@ def _trial(config: dict[str, Any]) -> None:
         final["total_steps"] = summary["steps"]
         tune.report({**final, "complete": True}, checkpoint=checkpoint)
     finally:
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
         if proc.poll() is None:
             # Tune stopped the trial: the run checkpoints at its next episode end and exits.
             proc.send_signal(signal.SIGTERM)

@@ -1,6 +1,7 @@
 """The same experiment on a (local) Ray cluster through Ray Tune: two tiny trials, one of them
 killed with its Tune worker and restarted by Tune from its checkpoint, end exactly as the same
-runs made by ``defender sweep``; no ``defender train`` process outlives its trial."""
+runs made by ``defender sweep``; no ``defender train`` process outlives its trial, and no copy of a
+checkpoint staged for Tune outlives its report."""
 
 from __future__ import annotations
 
@@ -158,6 +159,8 @@ def test_tune_trials_killed_and_restarted_equal_the_local_sweep(binary, tmp_path
     steps = [e.step for e in EventFileLoader(str(events)).Load() if e.HasField("summary")
              and e.summary.value[0].tag == "episode/return"]
     assert steps == sorted(set(steps)) and len(steps) == len(metrics(cluster / RUNS[1])) - 1
+    # Every checkpoint copied for Tune was removed once Tune had its own, the killed trial's too.
+    assert not list((cluster / ".sweep" / "staging").iterdir()), "a staged checkpoint was left behind"
     report = subprocess.run([str(binary), "report", str(cluster)], capture_output=True, text=True)
     assert report.returncode == 0, report.stderr
     assert "MinDemoW5" in report.stdout

@@ -9,10 +9,9 @@ use defender_nn::{Activation, Adam, AdamConfig, Mlp, NnError, mse_loss_grad};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("defender-nn-io-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A fresh folder for one test's files, removed when the returned guard drops.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("defender-nn-io-").tempdir().unwrap()
 }
 
 fn train_step(mlp: &mut Mlp, opt: &mut Adam, rng: &mut ChaCha8Rng) {
@@ -30,7 +29,8 @@ fn train_step(mlp: &mut Mlp, opt: &mut Adam, rng: &mut ChaCha8Rng) {
 fn network_round_trip_is_bit_exact_with_pytorch_names() {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let mlp = Mlp::new(&[11, 32, 32, 6], Activation::Relu, Activation::Tanh, &mut rng);
-    let path = tmp("actor.safetensors");
+    let dir = scratch();
+    let path = dir.path().join("actor.safetensors");
     mlp.save_safetensors(&path).unwrap();
     let back = Mlp::load_safetensors(&path).unwrap();
     assert_eq!(back.widths(), mlp.widths());
@@ -65,7 +65,8 @@ fn checkpoint_resume_is_bit_exact() {
     for _ in 0..3 {
         train_step(&mut mlp, &mut opt, &mut data);
     }
-    let (pn, po) = (tmp("ck.safetensors"), tmp("ck.adam.safetensors"));
+    let dir = scratch();
+    let (pn, po) = (dir.path().join("ck.safetensors"), dir.path().join("ck.adam.safetensors"));
     mlp.save_safetensors(&pn).unwrap();
     opt.save_safetensors(&po).unwrap();
     let mut mlp2 = Mlp::load_safetensors(&pn).unwrap();
@@ -105,7 +106,8 @@ fn write_raw(path: &PathBuf, tensors: &[(&str, &str, Vec<usize>)]) {
 #[test]
 fn load_errors_name_the_file_the_tensor_and_what_was_expected() {
     let mut mlp = Mlp::zeros(&[3, 4, 2], Activation::Relu, Activation::Identity).unwrap();
-    let path = tmp("bad.safetensors");
+    let dir = scratch();
+    let path = dir.path().join("bad.safetensors");
     let shown = path.display().to_string();
 
     write_raw(
@@ -147,13 +149,13 @@ fn load_errors_name_the_file_the_tensor_and_what_was_expected() {
     let msg = mlp.load_params_safetensors(&path).unwrap_err().to_string();
     assert!(msg.contains(&shown) && msg.contains("not a valid safetensors"), "{msg}");
 
-    let missing = tmp("does-not-exist.safetensors");
+    let missing = dir.path().join("does-not-exist.safetensors");
     let err = Mlp::load_safetensors(&missing).unwrap_err();
     assert!(matches!(err, NnError::Io { .. }) && err.to_string().contains("does-not-exist"), "{err}");
 
     // Optimiser state for another network.
     let other = Mlp::zeros(&[3, 5, 2], Activation::Relu, Activation::Identity).unwrap();
-    let opt_path = tmp("other.adam.safetensors");
+    let opt_path = dir.path().join("other.adam.safetensors");
     Adam::new(&other, AdamConfig::default()).save_safetensors(&opt_path).unwrap();
     let msg = Adam::load_safetensors(&opt_path, &mlp).unwrap_err().to_string();
     assert!(msg.contains("defender.widths") && msg.contains("3,4,2") && msg.contains("3,5,2"), "{msg}");
