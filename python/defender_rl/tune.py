@@ -122,15 +122,18 @@ def _progress(run_dir: Path) -> dict[str, Any]:
     return metrics
 
 
-def _stage_checkpoint(run_dir: Path, staging: Path, prefix: str) -> tuple[float, str] | None:
+def _stage_checkpoint(run_dir: Path, staging: Path, prefix: str, last: float | None) -> tuple[float, str] | None:
     """A copy of the run's current checkpoint and config.toml for Tune, in a new directory under
-    ``staging``, or None if there is no checkpoint or it was being replaced while copied (the next
-    poll tries again). The caller removes the copy once Tune has its own."""
+    ``staging``, or None if there is no checkpoint, it is the one staged last (``last``), or it was
+    being replaced while copied (the next poll tries again). The caller removes the copy once Tune
+    has its own."""
     # Written last into a checkpoint: its time identifies one complete checkpoint.
     manifest = run_dir / "checkpoint" / "manifest.json"
     try:
         before = manifest.stat().st_mtime_ns
     except OSError:
+        return None
+    if before == last:
         return None
     stage = tempfile.mkdtemp(prefix=prefix, dir=staging)
     try:
@@ -188,13 +191,11 @@ def _trial(config: dict[str, Any]) -> None:
         while True:
             code = proc.poll()
             metrics = _progress(run_dir)
-            staged = _stage_checkpoint(run_dir, staging, prefix)
+            staged = _stage_checkpoint(run_dir, staging, prefix, last_checkpoint)
             checkpoint = None
-            if staged is not None and staged[0] != last_checkpoint:
+            if staged is not None:
                 last_checkpoint, stage = staged
                 checkpoint = tune.Checkpoint.from_directory(stage)
-            elif staged is not None:
-                shutil.rmtree(staged[1], ignore_errors=True)
             if code is not None:
                 break
             if checkpoint is not None or metrics != last_metrics:
