@@ -14,7 +14,7 @@ use defender::EpisodeSet;
 use defender_config::run_config::RunConfig;
 use defender_report::{CONFIG_FILE, DYNAMICS_FILE, EVAL_FILE, METRICS_FILE, SUMMARY_FILE, UPDATES_FILE};
 
-use crate::commands::train::TrainArgs;
+use crate::commands::train_args::TrainArgs;
 
 /// How the provenance of a set recorded by `defender train --record-episodes` begins: such a set
 /// is the one kind of file that `--record-episodes` replaces.
@@ -31,21 +31,6 @@ const RUN_FILES: [&str; 8] = [
     "actor.safetensors",
     "checkpoint",
 ];
-
-/// A value of a flag that is written into `config.toml`: TOML integers are 64-bit signed, so a
-/// larger one would pass the parser and fail later, naming no flag.
-pub fn toml_u64(s: &str) -> Result<u64, String> {
-    let v: u64 = s.parse().map_err(|e| format!("{e} (expected a whole number)"))?;
-    if i64::try_from(v).is_err() {
-        return Err(format!("{v} is too large (at most {}, the largest TOML integer)", i64::MAX));
-    }
-    Ok(v)
-}
-
-/// [`toml_u64`] for a count.
-pub fn toml_usize(s: &str) -> Result<usize, String> {
-    toml_u64(s).and_then(|v| usize::try_from(v).map_err(|e| e.to_string()))
-}
 
 /// A path as the file system resolves it: canonical if it exists, else its canonical folder
 /// joined with its name, else as given made absolute.
@@ -172,14 +157,6 @@ fn shorten(text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn flags_written_to_toml_stay_within_its_integers() {
-        assert_eq!(toml_u64("9223372036854775807"), Ok(i64::MAX as u64));
-        let e = toml_u64("9223372036854775808").unwrap_err();
-        assert!(e.contains("too large"), "{e}");
-        assert!(toml_u64("-1").is_err() && toml_usize("x").is_err());
-    }
 
     #[test]
     fn links_name_the_same_file() {

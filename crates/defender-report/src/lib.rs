@@ -18,6 +18,7 @@ mod measures;
 mod plot;
 mod render;
 mod run;
+mod run_violations;
 mod stats;
 mod status;
 mod table;

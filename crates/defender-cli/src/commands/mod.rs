@@ -10,4 +10,4 @@ pub mod screen;
 pub mod select;
 pub mod sweep;
 pub mod train;
-mod train_args;
+pub mod train_args;

@@ -38,7 +38,7 @@ pub struct TrainArgs {
     #[arg(long)]
     pub demos: Option<PathBuf>,
     /// Demonstrations used per group (the first N safe and the first N unsafe of the file).
-    #[arg(long, value_parser = crate::run_inputs::toml_usize)]
+    #[arg(long, value_parser = toml_usize)]
     pub num_demos: Option<usize>,
     /// Trajectory elements: states, or state-action pairs.
     #[arg(long, value_parser = parse_mode)]
@@ -57,7 +57,7 @@ pub struct TrainArgs {
     /// The agent's own episodes join the demonstrations (its crashes the unsafe group, episodes
     /// that reach the horizon the safe one), at most K per group, the oldest replaced
     /// ([defender.filter.own_episodes] keep).
-    #[arg(long, value_name = "K", value_parser = crate::run_inputs::toml_usize)]
+    #[arg(long, value_name = "K", value_parser = toml_usize)]
     pub own_episodes: Option<usize>,
     /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
     /// updates: same results bit for bit, less wall time when a core is free
@@ -72,23 +72,23 @@ pub struct TrainArgs {
     #[arg(long)]
     pub dynamics_spec_schedule: bool,
     /// Budget in training episodes.
-    #[arg(long, conflicts_with = "steps", value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, conflicts_with = "steps", value_parser = toml_u64)]
     pub episodes: Option<u64>,
     /// Budget in environment steps.
-    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, value_parser = toml_u64)]
     pub steps: Option<u64>,
     /// Seed of every random stream of the run.
-    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, value_parser = toml_u64)]
     pub seed: Option<u64>,
     /// Evaluate the deterministic policy every N steps (0: only at the end).
-    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, value_parser = toml_u64)]
     pub eval_freq: Option<u64>,
     /// Checkpoint every N training episodes (0: only by time, at the end and on a stop signal).
-    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, value_parser = toml_u64)]
     pub checkpoint_every: Option<u64>,
     /// Checkpoint at the first episode end N wall-clock seconds after the last one [default: 120;
     /// 0: never by time].
-    #[arg(long, value_parser = crate::run_inputs::toml_u64)]
+    #[arg(long, value_parser = toml_u64)]
     pub checkpoint_seconds: Option<u64>,
     /// A TOML configuration (the format of a run's config.toml; unknown keys are refused).
     #[arg(long)]
@@ -126,4 +126,32 @@ fn parse_strategy(s: &str) -> Result<StrategyChoice, String> {
 
 fn parse_mode(s: &str) -> Result<Mode, String> {
     s.parse().map_err(|e: defender::DefenderError| e.to_string())
+}
+
+/// A value of a flag that is written into `config.toml`: TOML integers are 64-bit signed, so a
+/// larger one would pass the parser and fail later, naming no flag.
+pub fn toml_u64(s: &str) -> Result<u64, String> {
+    let v: u64 = s.parse().map_err(|e| format!("{e} (expected a whole number)"))?;
+    if i64::try_from(v).is_err() {
+        return Err(format!("{v} is too large (at most {}, the largest TOML integer)", i64::MAX));
+    }
+    Ok(v)
+}
+
+/// [`toml_u64`] for a count.
+pub fn toml_usize(s: &str) -> Result<usize, String> {
+    toml_u64(s).and_then(|v| usize::try_from(v).map_err(|e| e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_written_to_toml_stay_within_its_integers() {
+        assert_eq!(toml_u64("9223372036854775807"), Ok(i64::MAX as u64));
+        let e = toml_u64("9223372036854775808").unwrap_err();
+        assert!(e.contains("too large"), "{e}");
+        assert!(toml_u64("-1").is_err() && toml_usize("x").is_err());
+    }
 }
