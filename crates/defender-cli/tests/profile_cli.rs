@@ -95,3 +95,37 @@ fn a_new_run_takes_keeps_learning_and_spec_is_one_word_away() {
     assert!(!config["defender"].as_table().unwrap().contains_key("filter"), "SPEC's filter: {config:?}");
     assert_eq!(config["sac"]["demos_in_replay"].as_bool(), Some(false));
 }
+
+/// `--learn-from-demos` is the default profile's learner without its filter (the "demonstrations
+/// alone" baseline): the same `[sac]` as a DEFENDER run under `keeps-learning`, no `[defender]`,
+/// the set recorded at the top level; under the authors' profile the flag's cloning form wins.
+#[test]
+fn learning_from_the_demonstrations_alone_is_the_default_learner_without_its_filter() {
+    let dir = tempfile::tempdir().unwrap();
+    let filtered = dir.path().join("filtered");
+    let with_filter = train(&["--strategy", "MinBothW5/MinBothW5", "--out", filtered.to_str().unwrap()]);
+    let alone = dir.path().join("alone");
+    let config = train(&["--learn-from-demos", "--out", alone.to_str().unwrap()]);
+    assert!(!config.contains_key("defender"), "{config:?}");
+    assert_eq!(config["sac"], with_filter["sac"]);
+    assert!(config["demos"].as_str().unwrap().ends_with("InvertedDoublePendulum-v5.npz"));
+
+    let own = dir.path().join("own");
+    let demos = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/demos/InvertedDoublePendulum-v5.npz");
+    let config = train(&["--learn-from-demos", "--demos", demos, "--out", own.to_str().unwrap()]);
+    assert_eq!(config["demos"].as_str(), Some(demos));
+
+    // The flag names the learner, whatever a profile would fill (the authors' cloning form).
+    let authors = dir.path().join("authors");
+    let config = train(&[
+        "--profile",
+        "authors",
+        "--strategy",
+        "MinBothW5/MinBothW5",
+        "--learn-from-demos",
+        "--out",
+        authors.to_str().unwrap(),
+    ]);
+    assert_eq!(config["sac"]["bc_form"].as_str(), Some("per-row"));
+    assert_eq!(config["sac"]["warmup"].as_bool(), Some(false), "the profile's other keys stay");
+}

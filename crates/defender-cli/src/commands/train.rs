@@ -72,6 +72,24 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
 /// Marks the settings that flags give as given, so that a profile fills around them and never
 /// replaces them (`--margin 0` under `keeps-learning` is SPEC's decision rule).
 fn given_by_flags(given: &mut toml::Table, args: &TrainArgs) {
+    if args.learn_from_demos {
+        // The learner `--learn-from-demos` names, whatever a profile would fill (the authors'
+        // cloning form).
+        let algo = args.algo.map_or_else(
+            || given.get("algo").and_then(|a| a.as_str()).unwrap_or("sac").to_string(),
+            |a| a.as_str().to_string(),
+        );
+        let mut agent = toml::Table::new();
+        agent.insert("demos_in_replay".into(), true.into());
+        if algo == "sac" {
+            agent.insert("bc_weight".into(), 1.0.into());
+            agent.insert("bc_form".into(), "per-row".into());
+        }
+        let into = given.entry(algo).or_insert_with(|| toml::Table::new().into());
+        if let Some(into) = into.as_table_mut() {
+            into.extend(agent);
+        }
+    }
     let mut filter = toml::Table::new();
     if let Some(m) = args.margin {
         filter.insert("margin".into(), m.into());
@@ -147,7 +165,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     }
     args.safety.apply(&mut config);
     let wants_defender = args.strategy.is_some()
-        || args.demos.is_some()
+        || (args.demos.is_some() && !args.learn_from_demos)
         || args.num_demos.is_some()
         || args.mode.is_some()
         || args.r_task.is_some()
@@ -166,14 +184,21 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     }
     if let Some(section) = &mut config.defender {
         apply_defender_flags(section, args);
+    } else if args.learn_from_demos && args.demos.is_some() {
+        // Without a filter the set is the run's top-level `demos`, as Recovery RL's.
+        config.demos.clone_from(&args.demos);
     }
     match config.algo {
         Algo::Sac => {
-            config.sac.get_or_insert_with(Default::default);
+            let sac = config.sac.get_or_insert_with(Default::default);
+            if args.learn_from_demos {
+                (sac.demos_in_replay, sac.bc_weight, sac.bc_form) = (true, 1.0, defender_rl::BcForm::PerRow);
+            }
             config.td3 = None;
         }
         Algo::Td3 => {
-            config.td3.get_or_insert_with(Default::default);
+            let td3 = config.td3.get_or_insert_with(Default::default);
+            td3.demos_in_replay |= args.learn_from_demos;
             config.sac = None;
         }
     }
@@ -312,7 +337,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
             note!("recorded {} training episodes into {}", recorder.len(), path.display());
         }
     }
-    print_summary(&args.out, &summary, config.safety.as_ref(), matches!(end, RunEnd::Stopped));
+    print_summary(&args.out, &summary, &config, matches!(end, RunEnd::Stopped));
     match (&end, stop.exit_code()) {
         (RunEnd::Stopped, Some(code)) => Err(Stopped { code }.into()),
         _ => Ok(()),
@@ -338,11 +363,14 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
     Ok(config)
 }
 
-/// `safety`: the run's `[safety]` baseline, which `summary.json` does not record, so that a
-/// penalty, Lagrangian or recovery run is not called bare.
-fn print_summary(out: &Path, s: &Summary, safety: Option<&defender_rl::SafetyConfig>, stopped: bool) {
+/// `config`: for the run's `[safety]` baseline and whether its learner takes the demonstrations,
+/// which `summary.json` does not record, so that a penalty, Lagrangian, recovery or
+/// demonstrations-alone run is not called bare.
+fn print_summary(out: &Path, s: &Summary, config: &RunConfig, stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
-    let what = match (s.strategy, safety.map(defender_rl::SafetyConfig::method)) {
+    let demos = config.algo_config().demos_in_replay();
+    let what = match (s.strategy, config.safety.as_ref().map(defender_rl::SafetyConfig::method)) {
+        (None, None) if demos => "learning from the demonstrations".to_string(),
         (None, None) => "bare".to_string(),
         (None, Some(method)) => method.to_string(),
         (Some(st), None) => format!("DEFENDER {st}"),

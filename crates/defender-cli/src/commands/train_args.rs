@@ -114,6 +114,13 @@ pub struct TrainArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub safety: super::safety_flags::SafetyFlags,
+    /// The demonstrations alone (the default profile's learner without its filter): every
+    /// demonstration transition in the replay buffer and, for SAC, per-row behaviour cloning of
+    /// weight 1 on the safe demonstrations' rows ([sac] demos_in_replay = true, bc_weight = 1,
+    /// bc_form = "per-row"; [td3] demos_in_replay = true). The set is --demos, else the one
+    /// shipped for the task.
+    #[arg(long, help_heading = "Baselines")]
+    pub learn_from_demos: bool,
 }
 
 fn parse_algo(s: &str) -> Result<Algo, String> {
