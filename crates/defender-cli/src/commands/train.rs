@@ -178,7 +178,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         let strategy = args.strategy.context(
             "--demos, --num-demos, --mode, --r-task, --margin, --filter-budget, --own-episodes, \
              --dynamics-thread and --dynamics-spec-schedule configure DEFENDER: give --strategy \
-             SAFE/UNSAFE too",
+             SAFE/UNSAFE too (or, for --demos, --learn-from-demos: the demonstrations without the filter)",
         )?;
         config.defender = Some(DefenderSection::new(strategy));
     }
