@@ -112,14 +112,22 @@ fn keeps_learning(algo: &str, defender: bool) -> toml::Table {
     let mut section = toml::Table::new();
     section.insert("filter".into(), filter.into());
     t.insert("defender".into(), section.into());
+    t.insert(algo.into(), demos_learner(algo).into());
+    t
+}
+
+/// The learner half of `keeps-learning` (the keys of the `[sac]` or `[td3]` section): every
+/// demonstration transition in the replay buffer and, for SAC, per-row cloning of weight 1 on
+/// the safe demonstrations' rows. A DEFENDER run under the profile gets it, and `defender train
+/// --learn-from-demos` gives it without the filter (the "demonstrations alone" baseline).
+pub fn demos_learner(algo: &str) -> toml::Table {
     let mut agent = toml::Table::new();
     agent.insert("demos_in_replay".into(), true.into());
     if algo == "sac" {
         agent.insert("bc_weight".into(), 1.0.into());
         agent.insert("bc_form".into(), "per-row".into());
     }
-    t.insert(algo.into(), agent.into());
-    t
+    agent
 }
 
 /// The profile of a new run whose request names none (`defender train` and its `--config` file,

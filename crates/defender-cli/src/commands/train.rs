@@ -61,7 +61,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
     if let Some(profile) = args.profile {
         given.insert("profile".into(), profile.name().into());
     }
-    given_by_flags(&mut given, args);
+    given_by_flags(&mut given, args, config.algo);
     defender_config::profile::default_for_new_run(&mut given);
     let written = toml::Table::try_from(&config)?;
     let config = with_profile(&written, &given)?;
@@ -71,24 +71,11 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
 
 /// Marks the settings that flags give as given, so that a profile fills around them and never
 /// replaces them (`--margin 0` under `keeps-learning` is SPEC's decision rule).
-fn given_by_flags(given: &mut toml::Table, args: &TrainArgs) {
+fn given_by_flags(given: &mut toml::Table, args: &TrainArgs, algo: Algo) {
     if args.learn_from_demos {
         // The learner `--learn-from-demos` names, whatever a profile would fill (the authors'
         // cloning form).
-        let algo = args.algo.map_or_else(
-            || given.get("algo").and_then(|a| a.as_str()).unwrap_or("sac").to_string(),
-            |a| a.as_str().to_string(),
-        );
-        let mut agent = toml::Table::new();
-        agent.insert("demos_in_replay".into(), true.into());
-        if algo == "sac" {
-            agent.insert("bc_weight".into(), 1.0.into());
-            agent.insert("bc_form".into(), "per-row".into());
-        }
-        let into = given.entry(algo).or_insert_with(|| toml::Table::new().into());
-        if let Some(into) = into.as_table_mut() {
-            into.extend(agent);
-        }
+        merge_demos_learner(given, algo);
     }
     let mut filter = toml::Table::new();
     if let Some(m) = args.margin {
@@ -190,20 +177,30 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     }
     match config.algo {
         Algo::Sac => {
-            let sac = config.sac.get_or_insert_with(Default::default);
-            if args.learn_from_demos {
-                (sac.demos_in_replay, sac.bc_weight, sac.bc_form) = (true, 1.0, defender_rl::BcForm::PerRow);
-            }
+            config.sac.get_or_insert_with(Default::default);
             config.td3 = None;
         }
         Algo::Td3 => {
-            let td3 = config.td3.get_or_insert_with(Default::default);
-            td3.demos_in_replay |= args.learn_from_demos;
+            config.td3.get_or_insert_with(Default::default);
             config.sac = None;
         }
     }
+    if args.learn_from_demos {
+        let mut table = toml::Table::try_from(&config)?;
+        merge_demos_learner(&mut table, config.algo);
+        config = table.try_into()?;
+    }
     config.budget()?;
     Ok(config)
+}
+
+/// Sets the default profile's learner keys (`profile::demos_learner`) in the `[sac]` or `[td3]`
+/// section of `table`, a run configuration as TOML.
+fn merge_demos_learner(table: &mut toml::Table, algo: Algo) {
+    let section = table.entry(algo.as_str()).or_insert_with(|| toml::Table::new().into());
+    if let Some(section) = section.as_table_mut() {
+        section.extend(defender_config::profile::demos_learner(algo.as_str()));
+    }
 }
 
 /// Applies the flags that configure DEFENDER over a `[defender]` section.
