@@ -5,8 +5,10 @@ OmniSafe is measured against, not used by the project (docs/peers.md). This runs
 its own defaults (configs/off-policy/SACLag.yaml: 2,000 steps an epoch, 10,000 random steps, the
 multiplier frozen for 100 warm-up epochs, one evaluation episode an epoch) and the field's cost
 limit 25, on one seed and budget, one CPU thread. OmniSafe logs by epoch (progress.csv, where each
-value is a mean over the logger's last 10); to put its curve beside ours episode by episode, this
-also writes every episode as it ends:
+episode metric, Metrics/EpRet, EpCost, EpLen and their TestEp* twins, is a mean over the last 50
+episodes: OmniSafe 0.5.0's DDPG._init_log, which SAC and SACLag inherit, registers them with
+window_length=50 written in the code, and does not read the config's logger_cfgs.window_lens: 10);
+to put its curve beside ours episode by episode, this also writes every episode as it ends:
 
   OUT/episodes.csv   episode,total_steps,return,length,cost,wall_seconds: each training episode;
                      episode from 0; total_steps = environment steps taken when it ended (as
@@ -126,7 +128,7 @@ def hook_episodes(recorder: Recorder) -> None:
     OmniSafe keeps the episode's sums in `_ep_ret`/`_ep_cost`/`_ep_len` (raw values, before
     normalisation) and passes them to `_log_metrics` when the episode ends, before resetting them;
     `_log_value` runs once per vector step; `eval_policy` stores each evaluation episode's raw
-    sums in the logger (whose progress.csv shows only a mean over its last 10 values). All three
+    sums in the logger (whose progress.csv shows only a mean over its last 50 values). All three
     are wrapped, not replaced, so OmniSafe's own logging is unchanged.
     """
     from omnisafe.adapter.offpolicy_adapter import OffPolicyAdapter
