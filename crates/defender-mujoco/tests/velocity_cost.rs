@@ -1,13 +1,15 @@
 //! Safety-Gymnasium's velocity cost on recorded rollouts: every step of the v4 recordings
 //! (`tools/gym_record.py`, Gymnasium 1.4.0's `info["x_velocity"]`) replayed on the velocity task
 //! costs exactly `float(x_velocity > threshold)`, as safety-gymnasium 1.0.0's
-//! `safety_*_velocity_v0.py` computes it; a fall costs nothing by itself; the v4 bases cost 0.
+//! `safety_*_velocity_v0.py` computes it; a fall costs nothing by itself; the v4 bases cost 0;
+//! a step on which MuJoCo becomes unstable costs 1, whatever its velocity.
 
 #![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
 
 mod common;
 
 use defender_mujoco::{Cost, MujocoEnv, Task, replay};
+use defender_rl::Env;
 
 /// Replays `file` on `task` and checks its costs; returns (costly steps, free steps, falls that
 /// cost nothing).
@@ -77,4 +79,41 @@ fn v5_tasks_cost_their_crash_step_only() {
         let crash: Vec<f64> = got.terminated.iter().map(|&t| if t { 1.0 } else { 0.0 }).collect();
         assert_eq!(got.costs, crash);
     }
+}
+
+/// A step on which MuJoCo becomes unstable ends the episode and costs 1 on a velocity task
+/// (docs/SPEC.md section 13, docs/peers.md), as on a crash task, and 0 on the cost-free v4 bases.
+/// The velocity used here is backwards, so the velocity rule alone would call the step free: the
+/// cost comes from the instability.
+#[test]
+fn an_unstable_step_costs_one_on_a_velocity_task() {
+    let cases = [
+        (Task::SafetyHopperVelocity, 1.0),
+        (Task::SafetyWalker2dVelocity, 1.0),
+        (Task::SafetyHalfCheetahVelocity, 1.0),
+        (Task::Hopper, 1.0),
+        (Task::HopperV4, 0.0),
+        (Task::Walker2dV4, 0.0),
+        (Task::HalfCheetahV4, 0.0),
+    ];
+    for (task, want) in cases {
+        let mut env = MujocoEnv::new(task).unwrap();
+        env.reset(Some(0)).unwrap();
+        let qpos = env.qpos().to_vec();
+        let mut qvel = vec![0.0; env.qvel().len()];
+        // The root's x-velocity, far past MuJoCo's limit (1e10): it warns and resets its data.
+        qvel[0] = -1e12;
+        env.set_state(&qpos, &qvel).unwrap();
+        let step = env.step(&vec![0.0; env.action_space().dim()]).unwrap();
+        assert!(step.info.unstable && step.terminated && !step.truncated, "{}: {step:?}", task.id());
+        assert_eq!(step.cost, want, "{}: the cost of an unstable step", task.id());
+    }
+
+    // The other way a step becomes unstable, a non-finite reward (the control cost of a 1e200
+    // action overflows), through replay: the calm first step is free, the unstable one costs 1.
+    let mut env = MujocoEnv::new(Task::SafetyHopperVelocity).unwrap();
+    let qpos = [0.0, 1.25, 0.0, 0.0, 0.0, 0.0];
+    let got = replay(&mut env, &qpos, &[0.0; 6], &[0.0, 0.0, 0.0, 1e200, 0.0, 0.0]).unwrap();
+    assert!(got.unstable && got.terminated == [false, true], "{got:?}");
+    assert_eq!(got.costs, [0.0, 1.0]);
 }
