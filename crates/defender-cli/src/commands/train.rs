@@ -369,18 +369,32 @@ fn print_summary(out: &Path, s: &Summary, config: &RunConfig, stopped: bool) {
     let what = match (s.strategy, config.safety.as_ref().map(defender_rl::SafetyConfig::method)) {
         (None, None) if demos => "learning from the demonstrations".to_string(),
         (None, None) => "bare".to_string(),
+        (None, Some(method)) if demos => format!("{method} + learning from the demonstrations"),
         (None, Some(method)) => method.to_string(),
         (Some(st), None) => format!("DEFENDER {st}"),
         (Some(st), Some(method)) => format!("DEFENDER {st} + {method}"),
     };
+    // A task with an episode cost limit (a velocity task) is judged by its cost: the training cost,
+    // per environment step (a filtered step is not one) and per episode. Its terminated episodes
+    // are falls, which are not its violations.
+    let safety = match s.episode_cost_limit {
+        Some(limit) => {
+            let v = &s.violations;
+            let per_episode = if s.episodes == 0 { 0.0 } else { v.cost / s.episodes as f64 };
+            format!(
+                "training cost {:.0} ({:.3} per env step, {per_episode:.1} per episode; limit {limit} an episode), falls {:.1}%",
+                v.cost, v.cost_rate, s.crash_pct
+            )
+        }
+        None => format!("crash {:.1}%", s.crash_pct),
+    };
     say!(
-        "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, crash {:.1}%, filtered {:.1}%, {:.0} steps/s, {:.1}s",
+        "{} {} {what} seed {}: {} steps, {} episodes, Acc Reward {acc}, {safety}, filtered {:.1}%, {:.0} steps/s, {:.1}s",
         s.env,
         s.algo,
         s.seed,
         s.steps,
         s.episodes,
-        s.crash_pct,
         s.filtered_pct,
         s.steps_per_second,
         s.wall_seconds
