@@ -26,11 +26,20 @@ pub fn build_agent(
         };
         return Ok(Box::new(LagrangianSac::new(sac.clone(), lagrangian.clone(), obs_dim, act_dim, seed)?));
     }
+    if let Some(SafetyConfig::Pid(pid)) = &config.safety {
+        let AlgoConfig::Sac(sac) = algo else {
+            bail!(
+                "[safety] method = \"pid\" is PID Lagrangian SAC: it needs algo = \"sac\", not \"{}\"",
+                algo.algo()
+            );
+        };
+        return Ok(Box::new(LagrangianSac::pid(sac.clone(), pid.clone(), obs_dim, act_dim, seed)?));
+    }
     let agent = algo.build(obs_dim, act_dim, seed)?;
     Ok(match &config.safety {
         None => agent,
         Some(SafetyConfig::Penalty { penalty }) => Box::new(Penalized::new(agent, *penalty)),
         // Both are built above.
-        Some(SafetyConfig::Lagrangian(_) | SafetyConfig::Recovery(_)) => agent,
+        Some(SafetyConfig::Lagrangian(_) | SafetyConfig::Pid(_) | SafetyConfig::Recovery(_)) => agent,
     })
 }

@@ -32,6 +32,8 @@ pub struct UpdateLog {
     qc_loss: (f64, u32),
     #[serde(default)]
     lagrange_multiplier: Option<f32>,
+    #[serde(default)]
+    qc_mean: (f64, u32),
 }
 
 fn mean((sum, n): (f64, u32)) -> Option<f64> {
@@ -81,13 +83,16 @@ pub struct UpdateRow {
     pub qc_loss: Option<f64>,
     /// Its Lagrange multiplier at the window's last update (none otherwise).
     pub lagrange_multiplier: Option<f32>,
+    /// Its mean `Q_c` at the batch's states and the actor's actions, averaged over the window
+    /// (none otherwise, and in rows written before the column existed).
+    pub qc_mean: Option<f64>,
 }
 
 impl UpdateRow {
     /// The CSV row (`defender_report::UPDATES_HEADER`).
     pub fn to_csv(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             self.total_steps,
             self.n_updates,
             self.qf_loss,
@@ -97,16 +102,21 @@ impl UpdateRow {
             field(self.ent_coef_loss),
             field(self.recovery_steps),
             field(self.qc_loss),
-            field(self.lagrange_multiplier)
+            field(self.lagrange_multiplier),
+            field(self.qc_mean)
         )
     }
 
-    /// Parses a CSV row, of ten fields or of an older run's seven.
+    /// Parses a CSV row, of eleven fields or of an older run's seven or ten.
     ///
     /// # Errors
     /// A row that is not one of `updates.csv`, with what is wrong.
     pub fn parse(line: &str) -> Result<Self, String> {
-        let f = if line.split(',').count() == 7 { parse_fields(line, 7)? } else { parse_fields(line, 10)? };
+        let f = match line.split(',').count() {
+            7 => parse_fields(line, 7)?,
+            10 => parse_fields(line, 10)?,
+            _ => parse_fields(line, 11)?,
+        };
         let late = |k: usize| f.get(k).copied().unwrap_or("");
         Ok(Self {
             total_steps: required(f[0])?,
@@ -119,6 +129,7 @@ impl UpdateRow {
             recovery_steps: parse_field(late(7))?,
             qc_loss: parse_field(late(8))?,
             lagrange_multiplier: parse_field(late(9))?,
+            qc_mean: parse_field(late(10))?,
         })
     }
 }
@@ -196,6 +207,9 @@ impl UpdateLog {
         if stats.lagrange_multiplier.is_some() {
             self.lagrange_multiplier = stats.lagrange_multiplier;
         }
+        if let Some(q) = stats.qc_mean {
+            self.qc_mean = (self.qc_mean.0 + f64::from(q), self.qc_mean.1 + 1);
+        }
         self.n_updates = stats.n_updates;
         self.recovery_steps = stats.recovery_steps.or(self.recovery_steps);
         if !total_steps.is_multiple_of(EVERY) {
@@ -213,6 +227,7 @@ impl UpdateLog {
             recovery_steps: self.recovery_steps,
             qc_loss: mean(self.qc_loss),
             lagrange_multiplier: self.lagrange_multiplier,
+            qc_mean: mean(self.qc_mean),
         };
         *self = Self::default();
         Some(row)
@@ -257,6 +272,8 @@ mod tests {
         assert_eq!((old.recovery_steps, old.ent_coef_loss), (None, Some(0.01)));
         let plain = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01,,,").unwrap();
         assert_eq!(plain, old, "a run without Recovery RL leaves the column empty");
+        let now = UpdateRow::parse("1000,4,0.5,1.5,-2,0.1,0.01,,,,").unwrap();
+        assert_eq!(now, old, "nor does an eleven-column row of a plain run");
     }
 
     #[test]
@@ -268,21 +285,24 @@ mod tests {
             alpha: Some(0.2),
             cost_critic_loss: Some(qc),
             lagrange_multiplier: Some(lambda),
+            qc_mean: Some(4.0 * lambda),
             ..Default::default()
         };
         assert_eq!(log.add(999, &stats(1.0, 0.5)), None);
         let row = log.add(1000, &stats(3.0, 0.75)).unwrap();
         assert_eq!((row.qc_loss, row.lagrange_multiplier), (Some(2.0), Some(0.75)));
+        // qc_mean is the window's mean, as the losses are (2 and 3).
+        assert_eq!(row.qc_mean, Some(2.5));
         let csv = row.to_csv();
         assert_eq!(csv.split(',').count(), defender_report::UPDATES_HEADER.split(',').count());
         assert_eq!(UpdateRow::parse(&csv), Ok(row));
         let old = UpdateRow::parse("1000,5,0.5,1.5,-2,0.2,").unwrap();
         assert_eq!((old.n_updates, old.qc_loss, old.lagrange_multiplier), (5, None, None));
-        assert!(csv.ends_with(",,2,0.75"), "{csv}");
+        assert!(csv.ends_with(",,2,0.75,2.5"), "{csv}");
         // A plain agent's row leaves them empty.
         let mut log = UpdateLog::default();
         let plain = defender_rl::UpdateStats { n_updates: 1, ..Default::default() };
-        assert!(log.add(1000, &plain).unwrap().to_csv().ends_with(",,,"));
+        assert!(log.add(1000, &plain).unwrap().to_csv().ends_with(",,,,"));
         assert!(UpdateRow::parse("1,2,3").is_err());
     }
 

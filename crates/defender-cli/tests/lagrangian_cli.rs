@@ -4,12 +4,10 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{command, ok, refused, s};
+use common::{ok, refused, s};
 
 const ENV_ID: &str = "InvertedDoublePendulum-v5";
 
@@ -59,29 +57,20 @@ fn lagrangian_sac_trains_records_its_section_and_resumes_exactly() {
     assert!(whole.join("checkpoint/agent/lagrangian.json").exists());
     let updates = read(&whole, "updates.csv");
     let mut lines = updates.lines();
-    assert!(lines.next().unwrap().ends_with(",qc_loss,lagrange_multiplier"));
-    let lambdas: Vec<f64> = lines.map(|l| l.rsplit(',').next().unwrap().parse().unwrap()).collect();
+    assert!(lines.next().unwrap().ends_with(",qc_loss,lagrange_multiplier,qc_mean"));
+    let column = |l: &str, k: usize| -> f64 { l.split(',').nth(k).unwrap().parse().unwrap() };
+    let lambdas: Vec<f64> = lines.clone().map(|l| column(l, 9)).collect();
+    // The bounded cost critic's mean Q_c at the actor's actions: what a cost of 0 or 1 can be.
+    assert!(lines.map(|l| column(l, 10)).all(|q| (0.0..=100.0).contains(&q)), "{updates}");
     // IDP's random policy crashes every episode: J_c = 1 > d = 0.5, the multiplier rises.
     assert_eq!(lambdas.len(), 2, "{updates}");
     assert!(lambdas[0] > 0.001 && lambdas[1] > lambdas[0], "{updates}");
 
     // Stopped by SIGTERM once it has learnt a while, then resumed: the same run.
     let resumed = root.path().join("resumed");
-    let mut child = command()
-        .args(train_args(&config, &resumed))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while !read_or_empty(&resumed, "updates.csv").contains("\n1000,")
-        && start.elapsed() < Duration::from_secs(120)
-    {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let term = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
-    assert!(term.success());
-    assert_eq!(child.wait().unwrap().code(), Some(143), "not stopped by SIGTERM before its end");
+    let learnt = || read_or_empty(&resumed, "updates.csv").contains("\n1000,");
+    let code = common::stop_with_sigterm_when(&train_args(&config, &resumed), &resumed, learnt);
+    assert_eq!(code, Some(143), "not stopped by SIGTERM");
     ok(&["train", "--out", s(&resumed), "--resume"]);
     assert_eq!(
         common::metrics_without_wall(&resumed),
@@ -124,4 +113,59 @@ fn an_experiment_arm_selects_lagrangian_sac() {
     )
     .unwrap();
     refused(&["sweep", s(&td3), "--out", s(&root.path().join("out2")), "--list"], &["lagrangian", "algo"]);
+}
+
+#[test]
+fn pid_lagrangian_trains_with_omnisafes_options_and_the_options_need_a_lagrangian() {
+    let root = tempfile::tempdir().unwrap();
+    let config = config(root.path());
+    let out = root.path().join("pid");
+    let said = ok(&[
+        "train",
+        "--config",
+        &config,
+        "--pid",
+        "0.5",
+        "--cost-normalize",
+        "--max-grad-norm",
+        "40",
+        "--steps",
+        "1000",
+        "--seed",
+        "2",
+        "--out",
+        s(&out),
+    ]);
+    assert!(said.contains(&format!("{ENV_ID} sac pid seed 2: ")), "{said}");
+    let saved: toml::Table = read(&out, "config.toml").parse().unwrap();
+    let safety = saved["safety"].as_table().unwrap();
+    assert_eq!(safety["method"].as_str(), Some("pid"));
+    assert_eq!(safety["ki"].as_float(), Some(1e-7), "OmniSafe's SACPID gains by default");
+    assert_eq!(
+        (safety["cost_normalize"].as_bool(), safety["max_grad_norm"].as_float()),
+        (Some(true), Some(40.0))
+    );
+    let updates = read(&out, "updates.csv");
+    // IDP's random policy crashes every episode: J_c = 1 > d = 0.5; the PID output is positive.
+    let last = updates.lines().last().unwrap();
+    let lambda: f64 = last.split(',').nth(9).unwrap().parse().unwrap();
+    assert!(lambda > 0.0, "{updates}");
+    // The options belong to the Lagrangian agents.
+    let args = ["train", "--env", ENV_ID, "--steps", "1000", "--cost-normalize", "--out"];
+    refused(
+        &[&args[..], &[s(&root.path().join("bare"))]].concat(),
+        &["--cost-normalize", "--lagrangian", "--pid"],
+    );
+    // clap's own usage error (exit code 2).
+    let out = common::defender(&[
+        "train",
+        "--env",
+        ENV_ID,
+        "--lambda-lr",
+        "0.1",
+        "--out",
+        s(&root.path().join("b2")),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(common::text(&out).contains("--lagrangian <D>"), "{}", common::text(&out));
 }

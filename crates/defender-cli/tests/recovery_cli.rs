@@ -5,8 +5,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::Path;
-use std::process::Command;
-use std::time::{Duration, Instant};
 
 mod common;
 
@@ -65,21 +63,9 @@ fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
 
     // The same run stopped by SIGTERM after its first evaluation, then resumed.
     let out = dir.path().join("stopped");
-    let mut child = common::command()
-        .args(args(&config, &out))
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while !std::fs::read_to_string(out.join("eval.csv")).is_ok_and(|t| t.lines().count() >= 2)
-        && start.elapsed() < Duration::from_secs(120)
-    {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let kill = Command::new("kill").args(["-s", "TERM", &child.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    assert_eq!(child.wait().unwrap().code(), Some(143), "the run ended before it was stopped");
+    let evaluated = || std::fs::read_to_string(out.join("eval.csv")).is_ok_and(|t| t.lines().count() >= 2);
+    let code = common::stop_with_sigterm_when(&args(&config, &out), &out, evaluated);
+    assert_eq!(code, Some(143), "not stopped by SIGTERM");
     assert!(out.join("checkpoint/agent/recovery/state.json").exists());
     ok(&["train", "--out", s(&out), "--resume"]);
     let (ma, mo) = (common::metrics_without_wall(&alone), common::metrics_without_wall(&out));

@@ -68,7 +68,7 @@ pub struct RunConfig {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub td3: Option<defender_rl::Td3Config>,
     /// A baseline that learns from the steps' costs (`[safety]`: `method = "penalty"`,
-    /// `"lagrangian"` or `"recovery"`; defender_rl::safety); absent: the agent ignores costs.
+    /// `"lagrangian"`, `"pid"` or `"recovery"`; defender_rl::safety); absent: the agent ignores costs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub safety: Option<defender_rl::SafetyConfig>,
     /// What the run writes besides its CSV files (`[log]`); left out of `config.toml` when it is
@@ -175,9 +175,12 @@ impl RunConfig {
         if let Some(safety) = &self.safety {
             // The limit's range depends on the task: RunConfig::check_for_task.
             safety.validate().context("[safety]")?;
-            if let (defender_rl::SafetyConfig::Lagrangian(_), Algo::Td3) = (safety, self.algo) {
+            if let (defender_rl::SafetyConfig::Lagrangian(_) | defender_rl::SafetyConfig::Pid(_), Algo::Td3) =
+                (safety, self.algo)
+            {
                 bail!(
-                    "[safety] method = \"lagrangian\" is Lagrangian SAC: it needs algo = \"sac\", not \"td3\""
+                    "[safety] method = \"{}\" is a Lagrangian SAC: it needs algo = \"sac\", not \"td3\"",
+                    safety.method()
                 );
             }
         }
@@ -198,10 +201,18 @@ impl RunConfig {
                 (_, None) => safety
                     .validate_for_crash_cost()
                     .with_context(|| format!("[safety] on {env}, whose episode cost is a crash (1 or 0)"))?,
-                (defender_rl::SafetyConfig::Lagrangian(l), Some(limit)) if l.cost_limit <= 0.0 => bail!(
-                    "[safety] cost_limit = {}: on {env}, a task with a per-step cost, it must be > 0                      (the mean episode cost to keep under; Safety-Gymnasium's is {limit})",
-                    l.cost_limit
-                ),
+                (
+                    defender_rl::SafetyConfig::Lagrangian(defender_rl::safety::LagrangianConfig {
+                        cost_limit,
+                        ..
+                    })
+                    | defender_rl::SafetyConfig::Pid(defender_rl::safety::PidConfig { cost_limit, .. }),
+                    Some(limit),
+                ) if *cost_limit <= 0.0 => {
+                    bail!(
+                        "[safety] cost_limit = {cost_limit}: on {env}, a task with a per-step cost, it must be > 0                          (the mean episode cost to keep under; Safety-Gymnasium's is {limit})"
+                    )
+                }
                 _ => {}
             }
         }

@@ -77,16 +77,38 @@ pub(crate) fn algo_label(raw: &RawConfig) -> String {
     if tags.is_empty() { raw.algo.clone() } else { format!("{} ({})", raw.algo, tags.join(", ")) }
 }
 
-/// A `[safety]` baseline as a row names it, with its knobs: `penalty 100`, `lagrangian d=0.1`,
-/// `recovery eps=0.3 g=0.8`.
+/// A `[safety]` baseline as a row names it, with its knobs: `penalty 100`, `lagrangian d=0.1`
+/// (with ` lr=..` off the default rate, ` norm` with normalised costs, ` clip=..` with gradient
+/// clipping), `pid d=25 ki=1e-7`, `recovery eps=0.3 g=0.8`.
 fn safety_tag(safety: &toml::Table) -> String {
     let num =
         |key: &str| safety.get(key).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
     let show = |key: &str| num(key).map_or_else(|| "?".to_string(), |v| format!("{v}"));
     match safety.get("method").and_then(toml::Value::as_str).unwrap_or("?") {
         "penalty" => format!("penalty {}", show("penalty")),
-        "lagrangian" => format!("lagrangian d={}", show("cost_limit")),
+        "lagrangian" => {
+            let lr =
+                num("lambda_lr").filter(|&lr| lr != 0.01).map_or(String::new(), |lr| format!(" lr={lr}"));
+            format!("lagrangian d={}{lr}{}", show("cost_limit"), cost_options(safety))
+        }
+        "pid" => {
+            format!("pid d={} ki={}{}", show("cost_limit"), num("ki").unwrap_or(1e-7), cost_options(safety))
+        }
         "recovery" => format!("recovery eps={} g={}", show("eps_risk"), show("gamma_risk")),
         other => other.to_string(),
     }
+}
+
+/// The Lagrangian agents' cost options a label shows: ` norm` (normalised costs), ` clip=N`.
+fn cost_options(safety: &toml::Table) -> String {
+    let mut tags = String::new();
+    if safety.get("cost_normalize").and_then(toml::Value::as_bool) == Some(true) {
+        tags.push_str(" norm");
+    }
+    if let Some(n) =
+        safety.get("max_grad_norm").and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+    {
+        tags.push_str(&format!(" clip={n}"));
+    }
+    tags
 }

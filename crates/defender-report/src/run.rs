@@ -29,10 +29,11 @@ pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,ep
 /// report).
 pub const UPDATES_FILE: &str = "updates.csv";
 /// The header of `updates.csv`.
-/// The last three columns came later (Recovery RL's count, a Lagrangian agent's cost critic loss
-/// and multiplier): a file of an older run has rows of the first seven only (read as empty).
+/// The last four columns came later (Recovery RL's count, a Lagrangian agent's cost critic loss,
+/// multiplier and mean `Q_c` at the actor's actions): a file of an older run has rows of the
+/// first seven or ten only (read as empty).
 pub const UPDATES_HEADER: &str = "total_steps,n_updates,qf_loss,qf1_mean,actor_loss,ent_coef,ent_coef_loss,\
-recovery_steps,qc_loss,lagrange_multiplier";
+recovery_steps,qc_loss,lagrange_multiplier,qc_mean";
 /// DEFENDER's dynamics model every 1000 steps, its prediction error on fresh transitions and its
 /// training loss (DEFENDER runs only; written by `defender train`, not read by the report).
 pub const DYNAMICS_FILE: &str = "dynamics.csv";

@@ -29,6 +29,9 @@ pub struct UpdateStats {
     pub cost_critic_loss: Option<f32>,
     /// The Lagrange multiplier used (Lagrangian SAC: `train/lagrange_multiplier`).
     pub lagrange_multiplier: Option<f32>,
+    /// The mean `Q_c` at the batch's states and the actor's actions (a Lagrangian agent's cost
+    /// critic, as the actor's loss reads it).
+    pub qc_mean: Option<f32>,
 }
 
 /// An off-policy agent as the trainer drives it: pick an action, store the transition, learn.

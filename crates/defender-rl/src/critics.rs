@@ -15,7 +15,9 @@ use defender_nn::{Activation, Adam, AdamConfig, Mlp, Parallelism};
 use rand_chacha::ChaCha8Rng;
 
 use crate::error::RlError;
-use crate::nets::{copy_out, load_net, new_mlp, rows, save_net, widths};
+use crate::nets::{
+    clip_coef, copy_out, grad_sq_norm, load_net, new_mlp, rows, save_net, scale_grads, widths,
+};
 
 /// One critic: the online network, its target, its optimiser, and its buffers.
 #[derive(Debug, Clone)]
@@ -32,19 +34,8 @@ pub(crate) struct Critic {
 }
 
 impl Critic {
-    /// A fresh critic for `input` values per row (PyTorch's initialisation, drawn from `init`);
-    /// the target starts as a copy.
-    pub(crate) fn new(
-        input: usize,
-        net_arch: &[usize],
-        adam: AdamConfig,
-        batch_size: usize,
-        init: &mut ChaCha8Rng,
-    ) -> Result<Self, RlError> {
-        Self::with_output(input, net_arch, adam, batch_size, init, Activation::Identity)
-    }
-
-    /// As [`Critic::new`] with `output` on the critic's output.
+    /// A fresh critic for `input` values per row with `output` on its output (PyTorch's
+    /// initialisation, drawn from `init`); the target starts as a copy.
     pub(crate) fn with_output(
         input: usize,
         net_arch: &[usize],
@@ -89,12 +80,28 @@ impl Critic {
         b: usize,
         dloss: &(dyn Fn(f32) -> f32 + Sync),
     ) {
+        self.backward_step(input, y, b, dloss);
+        self.apply_step();
+    }
+
+    /// [`Critic::train_step`] up to the gradient: the parameters are not yet stepped.
+    pub(crate) fn backward_step(
+        &mut self,
+        input: &[f32],
+        y: &[f32],
+        b: usize,
+        dloss: &(dyn Fn(f32) -> f32 + Sync),
+    ) {
         self.net.zero_grad();
         self.forward(input, b);
         for ((g, &q), &y) in self.grad[..b].iter_mut().zip(&self.q).zip(y) {
             *g = dloss(q - y);
         }
         self.net.backward_params(rows(&self.grad, b, 1));
+    }
+
+    /// The Adam step on the gradient [`Critic::backward_step`] left.
+    pub(crate) fn apply_step(&mut self) {
         self.opt.step(&mut self.net);
     }
 
@@ -188,6 +195,32 @@ impl TwinCritics {
         }
     }
 
+    /// Both critics' [`Critic::train_step`], their joint gradient scaled to `max_grad_norm` when
+    /// longer (torch's `clip_grad_norm_` over OmniSafe's `reward_critic`, which holds both).
+    /// Without `max_grad_norm` exactly `each(train_step)`.
+    pub(crate) fn train_step(
+        &mut self,
+        input: &[f32],
+        y: &[f32],
+        b: usize,
+        dloss: &(dyn Fn(f32) -> f32 + Sync),
+        max_grad_norm: Option<f32>,
+    ) {
+        let Some(max) = max_grad_norm else {
+            self.each(|_, c| c.train_step(input, y, b, dloss));
+            return;
+        };
+        self.each(|_, c| c.backward_step(input, y, b, dloss));
+        let norm = (grad_sq_norm(&self.critics[0].net) + grad_sq_norm(&self.critics[1].net)).sqrt() as f32;
+        let k = clip_coef(norm, max);
+        self.each(|_, c| {
+            if k < 1.0 {
+                scale_grads(&mut c.net, k);
+            }
+            c.apply_step();
+        });
+    }
+
     /// Critic `k` alone (TD3's actor loss reads the first only), with all the agent's threads.
     pub(crate) fn alone(&mut self, k: usize) -> &mut Critic {
         let c = &mut self.critics[k];
@@ -225,5 +258,45 @@ impl std::ops::Index<usize> for TwinCritics {
     type Output = Critic;
     fn index(&self, k: usize) -> &Critic {
         &self.critics[k]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nets::grad_sq_norm;
+    use rand::SeedableRng;
+
+    fn twins() -> TwinCritics {
+        let mut init = ChaCha8Rng::seed_from_u64(3);
+        TwinCritics::new(2, 1, &[8], AdamConfig::default(), 4, &mut init).unwrap()
+    }
+
+    #[test]
+    fn clipping_scales_both_critics_gradients_by_one_factor_to_the_joint_norm() {
+        let input = [0.5, -1.0, 0.2, 1.0, 0.3, -0.4, -0.2, 0.8, 0.1, 0.9, -0.9, 0.0];
+        let y = [10.0, -8.0, 5.0, 7.0];
+        let dloss = |diff: f32| diff / 4.0;
+        let mut plain = twins();
+        plain.train_step(&input, &y, 4, &dloss, None);
+        let g: Vec<Vec<f32>> = (0..2).map(|k| plain[k].net.grads().to_vec()).collect();
+        let norm = (grad_sq_norm(&plain[0].net) + grad_sq_norm(&plain[1].net)).sqrt();
+        assert!(norm > 1.0, "{norm}");
+        let mut clipped = twins();
+        clipped.train_step(&input, &y, 4, &dloss, Some(0.5));
+        let after = (grad_sq_norm(&clipped[0].net) + grad_sq_norm(&clipped[1].net)).sqrt();
+        assert!((after - 0.5).abs() < 1e-4, "joint norm {after}");
+        // One factor for both (torch's clip_grad_norm_ over the module holding both).
+        let k = 0.5 / (norm as f32 + 1e-6);
+        for c in 0..2 {
+            for (a, b) in clipped[c].net.grads().iter().zip(&g[c]) {
+                assert!((a - k * b).abs() <= 1e-6 * b.abs().max(1.0), "critic {c}: {a} against {}", k * b);
+            }
+        }
+        // A bound above the norm changes nothing, bit for bit.
+        let mut loose = twins();
+        loose.train_step(&input, &y, 4, &dloss, Some(1e6));
+        assert_eq!(loose[0].net.params(), plain[0].net.params());
+        assert_eq!(loose[1].net.params(), plain[1].net.params());
     }
 }

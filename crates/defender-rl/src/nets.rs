@@ -32,6 +32,29 @@ pub(crate) fn concat_rows(dst: &mut [f32], obs: &[f32], act: &[f32], b: usize, o
     }
 }
 
+/// The squared L2 norm of a network's gradient (summed in f64).
+pub(crate) fn grad_sq_norm(net: &Mlp) -> f64 {
+    net.grads().iter().map(|&g| f64::from(g) * f64::from(g)).sum()
+}
+
+/// torch's `clip_grad_norm_` factor: `max_norm / (norm + 1e-6)`, at most 1.
+pub(crate) fn clip_coef(norm: f32, max_norm: f32) -> f32 {
+    (max_norm / (norm + 1e-6)).min(1.0)
+}
+
+/// Multiplies a network's gradient by `k`.
+pub(crate) fn scale_grads(net: &mut Mlp, k: f32) {
+    net.grads_mut().iter_mut().for_each(|g| *g *= k);
+}
+
+/// Scales a network's gradient to `max_norm` when longer (torch's `clip_grad_norm_`).
+pub(crate) fn clip_grad_norm(net: &mut Mlp, max_norm: f32) {
+    let k = clip_coef(grad_sq_norm(net).sqrt() as f32, max_norm);
+    if k < 1.0 {
+        scale_grads(net, k);
+    }
+}
+
 /// Converts an observation to `f32`, checking its length and values.
 pub(crate) fn obs_to_f32(obs: &[f64], dst: &mut [f32]) -> Result<(), RlError> {
     crate::error::check_vector("observation", obs, dst.len())?;

@@ -35,8 +35,8 @@ use crate::config::{BcForm, EntCoef, SacConfig};
 use crate::critics::TwinCritics;
 use crate::error::RlError;
 use crate::nets::{
-    ScalarAdam, check_action_len, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows, save_net,
-    widths,
+    ScalarAdam, check_action_len, clip_grad_norm, concat_rows, copy_out, load_net, new_mlp, obs_to_f32, rows,
+    save_net, widths,
 };
 use crate::off_policy::{Experience, Identity, Schedule, check_saved, uniform_action};
 use crate::replay::{Batch, ReplayBuffer, Transition};
@@ -124,6 +124,8 @@ pub(crate) trait CostTerm {
     /// Adds `weight * dQ_c/da~` to `dact` for the `[s | a~]` rows `pi_in` (through the updated
     /// cost critic) and returns `weight * sum_i Q_c(s_i, a~_i)`.
     fn actor_term(&mut self, pi_in: &[f32], weight: f32, dact: &mut [f32]) -> f32;
+    /// Gradient-norm clipping of the actor and the reward critics (OmniSafe's `max_grad_norm`).
+    fn max_grad_norm(&self) -> Option<f32>;
 }
 
 /// What `state.json` holds besides the networks and the buffer.
@@ -424,7 +426,8 @@ impl Sac {
         // Critics: 0.5 * sum_i mse(Q_i(s, a), y); d/dQ_i = (Q_i - y) / b.
         concat_rows(&mut ws.critic_in, &ws.batch.obs, &ws.batch.actions, b, o, a);
         let (critic_in, target) = (&ws.critic_in, &ws.target);
-        self.critics.each(|_, c| c.train_step(critic_in, target, b, &|diff| diff / b as f32));
+        let max_grad_norm = cost.as_ref().and_then(|c| c.max_grad_norm());
+        self.critics.train_step(critic_in, target, b, &|diff| diff / b as f32, max_grad_norm);
         let (mut qf_loss, mut qf1_mean) = (0.0f32, 0.0f32);
         for (k, values) in [&self.critics[0].q, &self.critics[1].q].into_iter().enumerate() {
             for (&q, &y) in values.iter().zip(target) {
@@ -442,6 +445,9 @@ impl Sac {
         }
 
         let actor_loss = self.actor_backward(alpha, cost);
+        if let Some(max) = max_grad_norm {
+            clip_grad_norm(&mut self.actor, max);
+        }
         self.actor_opt.step(&mut self.actor);
 
         self.n_updates += 1;
@@ -462,6 +468,7 @@ impl Sac {
             recovery_steps: None,
             cost_critic_loss: None,
             lagrange_multiplier: None,
+            qc_mean: None,
         })
     }
 }

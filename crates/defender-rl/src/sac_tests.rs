@@ -67,18 +67,30 @@ impl CostTerm for LagrangeTerm {
     fn actor_term(&mut self, pi_in: &[f32], weight: f32, dact: &mut [f32]) -> f32 {
         self.critic.actor_term(pi_in, weight, dact)
     }
+    fn max_grad_norm(&self) -> Option<f32> {
+        None
+    }
+}
+
+/// A term with a bounded cost critic (costs in [0, 0.02]: Q_c in [0, 2], small enough for the f32
+/// loss's difference quotients), else the linear one.
+fn lagrange_term_of(sac: &Sac, lambda: f32, bounded: bool) -> LagrangeTerm {
+    use crate::safety::cost_critic::{CostCritic, CostRange};
+    let range = CostRange { per_step: bounded.then_some((0.0, 0.02)), max_grad_norm: None };
+    LagrangeTerm { critic: CostCritic::new(&sac.config, 3, 2, 11, range).unwrap(), lambda }
 }
 
 fn lagrange_term(sac: &Sac, lambda: f32) -> LagrangeTerm {
-    let critic = crate::safety::cost_critic::CostCritic::new(&sac.config, 3, 2, 11).unwrap();
-    LagrangeTerm { critic, lambda }
+    lagrange_term_of(sac, lambda, true)
 }
 
 #[test]
 fn the_lagrangian_actor_gradient_matches_finite_differences() {
-    let sac = small(0.3);
-    let mut term = lagrange_term(&sac, 0.7);
-    check_actor_gradient_with(sac, 0.3, Some(&mut term));
+    for bounded in [true, false] {
+        let sac = small(0.3);
+        let mut term = lagrange_term_of(&sac, 0.7, bounded);
+        check_actor_gradient_with(sac, 0.3, Some(&mut term));
+    }
 }
 
 #[test]
@@ -90,9 +102,10 @@ fn the_lagrangian_actor_loss_is_sacs_plus_lambda_q_c_over_one_plus_lambda() {
     assert_eq!(loss_with(&mut sac, &rng, 0.3, Some(&mut zero)), plain, "lambda 0 is SAC");
     let mut term = lagrange_term(&sac, 0.7);
     let lagrangian = loss_with(&mut sac, &rng, 0.3, Some(&mut term));
-    // Q_c at the same actions, by a weight-1 term: sum_i Q_c(s_i, a~_i).
-    let mut dact = vec![0.0; 16];
-    let mean_qc = term.critic.actor_term(&sac.ws.pi_in, 1.0, &mut dact) / 8.0;
+    // Q_c at the same actions, from the critic's network and its documented output map
+    // (lo + scale * sigmoid output), not through the actor term under test.
+    let mean_qc = term.critic.q_values(&sac.ws.pi_in).iter().sum::<f32>() / 8.0;
+    assert!(mean_qc > 0.0 && mean_qc < 2.0, "{mean_qc}");
     let expected = (plain + 0.7 * mean_qc) / 1.7;
     assert!((lagrangian - expected).abs() < 1e-5, "{lagrangian} vs {expected}");
     assert!((lagrangian - plain).abs() > 1e-3, "the cost term must matter here");

@@ -232,6 +232,7 @@ impl Td3 {
             recovery_steps: None,
             cost_critic_loss: None,
             lagrange_multiplier: None,
+            qc_mean: None,
         })
     }
 }

@@ -1,11 +1,13 @@
-//! Lagrangian SAC in a trainer: deterministic under a seed, and a run stopped and resumed equals
-//! one never stopped bit for bit (networks, the cost critic, the multiplier and its window).
+//! Lagrangian and PID Lagrangian SAC in a trainer: deterministic under a seed, and a run stopped
+//! and resumed equals one never stopped bit for bit (networks, the cost critic, the multiplier or
+//! the PID controller and their window, the cost normaliser).
+#![allow(clippy::unwrap_used)]
 
 use std::path::Path;
 
 use defender_rl::classic::Pendulum;
-use defender_rl::safety::LagrangianConfig;
 use defender_rl::safety::lagrangian::LagrangianSac;
+use defender_rl::safety::{LagrangianConfig, PidConfig};
 use defender_rl::{
     Agent, BoxSpace, Budget, Env, EpisodeRecord, HookError, Hooks, RunEnd, SacConfig, Step, Trainer,
     TrainerConfig, UpdateStats,
@@ -40,16 +42,57 @@ impl Env for CostlyPendulum {
 
 type LagTrainer = Trainer<LagrangianSac, CostlyPendulum, CostlyPendulum>;
 
-fn trainer(seed: u64) -> LagTrainer {
-    let sac = SacConfig {
+fn small_sac() -> SacConfig {
+    SacConfig {
         net_arch: vec![32, 32],
         batch_size: 32,
         buffer_size: 10_000,
         learning_starts: 150,
         ..SacConfig::default()
-    };
-    let lag = LagrangianConfig { cost_limit: 5.0, lambda_lr: 0.05, window: 3, ..LagrangianConfig::default() };
-    let agent = LagrangianSac::new(sac, lag, 3, 1, seed).expect("agent");
+    }
+}
+
+fn lagrangian() -> LagrangianConfig {
+    LagrangianConfig { cost_limit: 5.0, lambda_lr: 0.05, window: 3, ..LagrangianConfig::default() }
+}
+
+/// The agents under test: the repaired Lagrangian, the same with OmniSafe's options (normalised
+/// costs, clipped gradients), and PID with gains large enough to move within six episodes.
+#[derive(Clone, Copy, Debug)]
+enum Variant {
+    Lagrangian,
+    OmniSafeOptions,
+    Pid,
+}
+
+fn agent(variant: Variant, seed: u64) -> LagrangianSac {
+    match variant {
+        Variant::Lagrangian => LagrangianSac::new(small_sac(), lagrangian(), 3, 1, seed),
+        Variant::OmniSafeOptions => {
+            let lag = LagrangianConfig { cost_normalize: true, max_grad_norm: Some(40.0), ..lagrangian() };
+            LagrangianSac::new(small_sac(), lag, 3, 1, seed)
+        }
+        Variant::Pid => {
+            let pid = PidConfig {
+                cost_limit: 5.0,
+                kp: 1e-3,
+                ki: 1e-4,
+                kd: 1e-3,
+                window: 3,
+                ..PidConfig::default()
+            };
+            LagrangianSac::pid(small_sac(), pid, 3, 1, seed)
+        }
+    }
+    .expect("agent")
+}
+
+fn trainer(seed: u64) -> LagTrainer {
+    trainer_of(Variant::Lagrangian, seed)
+}
+
+fn trainer_of(variant: Variant, seed: u64) -> LagTrainer {
+    let agent = agent(variant, seed);
     let config = TrainerConfig {
         eval_freq: 400,
         eval_episodes: 1,
@@ -64,7 +107,7 @@ fn trainer(seed: u64) -> LagTrainer {
 #[derive(Default)]
 struct Recorder {
     episodes: Vec<(u64, u64, u64)>,
-    updates: Vec<(u64, u32, u32, u32)>,
+    updates: Vec<(u64, u32, u32, u32, u32)>,
     stop_after: Option<usize>,
 }
 
@@ -80,6 +123,7 @@ impl Hooks for Recorder {
             s.actor_loss.expect("an actor loss").to_bits(),
             bits(s.cost_critic_loss),
             bits(s.lagrange_multiplier),
+            bits(s.qc_mean),
         ));
     }
     fn should_stop(&mut self) -> bool {
@@ -113,30 +157,93 @@ fn one_seed_gives_identical_runs_and_the_multiplier_moves() {
 
 #[test]
 fn a_stopped_and_resumed_run_equals_an_uninterrupted_one() {
+    for variant in [Variant::Lagrangian, Variant::OmniSafeOptions, Variant::Pid] {
+        stopped_and_resumed(variant);
+    }
+}
+
+fn stopped_and_resumed(variant: Variant) {
     let root = tempfile::tempdir().unwrap();
     let mut whole = Recorder::default();
-    let mut t = trainer(3);
+    let mut t = trainer_of(variant, 3);
     let end = t.run(&mut whole).unwrap();
     let whole_state = final_state(&t, root.path());
 
     let ckpt = root.path().join("checkpoint");
     let mut first = Recorder { stop_after: Some(3), ..Recorder::default() };
-    let mut t1 = trainer(3).with_checkpoint_dir(&ckpt);
+    let mut t1 = trainer_of(variant, 3).with_checkpoint_dir(&ckpt);
     assert_eq!(t1.run(&mut first).unwrap(), RunEnd::Stopped);
     assert!(ckpt.join("agent/lagrangian.json").exists() && ckpt.join("agent/qc_target.safetensors").exists());
     drop(t1);
 
     let mut second = Recorder::default();
-    let mut t2 = trainer(3).with_checkpoint_dir(&ckpt);
+    let mut t2 = trainer_of(variant, 3).with_checkpoint_dir(&ckpt);
     t2.resume(&ckpt, &mut second).unwrap();
     let end2 = t2.run(&mut second).unwrap();
     first.episodes.extend(second.episodes);
     first.updates.extend(second.updates);
-    assert_eq!(first.episodes, whole.episodes);
-    assert_eq!(first.updates, whole.updates);
+    assert_eq!(first.episodes, whole.episodes, "{variant:?}");
+    assert_eq!(first.updates, whole.updates, "{variant:?}");
     let (RunEnd::Complete(e1), RunEnd::Complete(e2)) = (end, end2) else { panic!("not complete") };
     assert_eq!(e1.returns, e2.returns);
-    assert!(final_state(&t2, root.path()) == whole_state, "final actors or multipliers differ");
+    assert!(final_state(&t2, root.path()) == whole_state, "{variant:?}: final actors or multipliers differ");
+}
+
+#[test]
+fn pid_and_omnisafes_options_learn_and_the_cost_critic_stays_in_bounds() {
+    for variant in [Variant::OmniSafeOptions, Variant::Pid] {
+        let mut rec = Recorder::default();
+        let mut t = trainer_of(variant, 5);
+        t.run(&mut rec).unwrap();
+        // The pendulum starts low: its episodes cost more than d = 5, so either controller raises
+        // lambda (PID's starts at 0, its integral at 0.001).
+        let lambda = t.agent().lambda();
+        assert!(lambda > 0.001, "{variant:?}: lambda {lambda}");
+        // Costs normalised to +-5: Q_c within +-500; raw costs in [0, 1]: within [0, 100].
+        let bound = match variant {
+            Variant::OmniSafeOptions => (-500.0, 500.0),
+            _ => (0.0, 100.0),
+        };
+        for u in &rec.updates {
+            let qc = f32::from_bits(u.4);
+            assert!(qc >= bound.0 && qc <= bound.1, "{variant:?}: qc_mean {qc}");
+        }
+    }
+    // The repaired Lagrangian's mean Q_c is that of costs in [0, 1].
+    let mut rec = Recorder::default();
+    trainer(5).run(&mut rec).unwrap();
+    assert!(rec.updates.iter().all(|u| (0.0..=100.0).contains(&f32::from_bits(u.4))));
+}
+
+#[test]
+fn demonstration_costs_train_the_critic_but_stay_out_of_j_c() {
+    use defender_rl::Transition;
+    for variant in [Variant::Lagrangian, Variant::Pid] {
+        let mut a = agent(variant, 2);
+        let (obs, next, act) = ([0.1, 0.2, 0.3], [0.2, 0.3, 0.4], [0.5f32]);
+        let step = |cost, end| Transition {
+            obs: &obs,
+            action: &act,
+            reward: 0.0,
+            cost,
+            next_obs: &next,
+            terminated: end,
+            truncated: false,
+        };
+        // A costly demonstration episode ending.
+        for t in 0..4 {
+            a.store_demonstration(&step(1.0, t == 3), false).unwrap();
+        }
+        assert_eq!(a.mean_episode_cost(), None, "{variant:?}: a demonstration is not a training episode");
+        // A training episode of cost 0.5 + 0 is the only one J_c counts.
+        a.observe(&step(0.5, false)).unwrap();
+        a.observe(&step(0.0, true)).unwrap();
+        assert_eq!(a.mean_episode_cost(), Some(0.5), "{variant:?}");
+        // A step cost above cost_max (1) is refused, naming the key.
+        let err = a.observe(&step(2.0, false)).unwrap_err().to_string();
+        assert!(err.contains("cost_max"), "{err}");
+        assert!(a.observe(&step(-0.1, false)).is_err(), "a negative cost is refused");
+    }
 }
 
 #[test]
@@ -146,21 +253,20 @@ fn resume_refuses_a_checkpoint_of_other_settings_or_of_plain_sac() {
     let mut stop = Recorder { stop_after: Some(1), ..Recorder::default() };
     trainer(1).with_checkpoint_dir(&ckpt).run(&mut stop).unwrap();
     let agent = ckpt.join("agent");
-    let sac = SacConfig {
-        net_arch: vec![32, 32],
-        batch_size: 32,
-        buffer_size: 10_000,
-        learning_starts: 150,
-        ..SacConfig::default()
-    };
-    let other =
-        LagrangianConfig { cost_limit: 4.0, lambda_lr: 0.05, window: 3, ..LagrangianConfig::default() };
+    let sac = small_sac();
+    let other = LagrangianConfig { cost_limit: 4.0, ..lagrangian() };
     let mut agent2 = LagrangianSac::new(sac.clone(), other, 3, 1, 1).unwrap();
     let err = agent2.load(&agent).unwrap_err().to_string();
     assert!(err.contains("lagrangian.json"), "{err}");
     std::fs::remove_file(agent.join("lagrangian.json")).unwrap();
-    let same =
-        LagrangianConfig { cost_limit: 5.0, lambda_lr: 0.05, window: 3, ..LagrangianConfig::default() };
-    let mut agent3 = LagrangianSac::new(sac, same, 3, 1, 1).unwrap();
+    let mut agent3 = LagrangianSac::new(sac.clone(), lagrangian(), 3, 1, 1).unwrap();
     assert!(agent3.load(&agent).is_err(), "a plain SAC checkpoint has no multiplier");
+    // A PID agent refuses a Lagrangian checkpoint.
+    let ckpt = root.path().join("checkpoint2");
+    trainer(1)
+        .with_checkpoint_dir(&ckpt)
+        .run(&mut Recorder { stop_after: Some(1), ..Recorder::default() })
+        .unwrap();
+    let err = self::agent(Variant::Pid, 1).load(&ckpt.join("agent")).unwrap_err().to_string();
+    assert!(err.contains("lagrangian.json"), "{err}");
 }

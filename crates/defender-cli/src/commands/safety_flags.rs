@@ -1,9 +1,10 @@
 //! `defender train`'s flags for the baselines that learn from costs (the `[safety]` section of a
-//! run configuration; defender_rl::safety): one of `--penalty`, `--lagrangian`, `--recovery`.
+//! run configuration; defender_rl::safety): one of `--penalty`, `--lagrangian`, `--pid`,
+//! `--recovery`, and the Lagrangian agents' options.
 
 use clap::Args;
 use defender_config::run_config::RunConfig;
-use defender_rl::safety::{LagrangianConfig, RecoveryConfig, SafetyConfig};
+use defender_rl::safety::{LagrangianConfig, PidConfig, RecoveryConfig, SafetyConfig};
 
 /// The Recovery RL safety discount `--recovery` takes without `--gamma-risk`.
 pub const DEFAULT_GAMMA_RISK: f64 = 0.8;
@@ -17,7 +18,7 @@ pub struct SafetyFlags {
         long,
         value_name = "P",
         allow_negative_numbers = true,
-        conflicts_with_all = ["lagrangian", "recovery"],
+        conflicts_with_all = ["lagrangian", "pid", "recovery"],
         help_heading = "Baselines"
     )]
     pub penalty: Option<f64>,
@@ -28,10 +29,33 @@ pub struct SafetyFlags {
         long,
         value_name = "D",
         allow_negative_numbers = true,
-        conflicts_with = "recovery",
+        conflicts_with_all = ["pid", "recovery"],
         help_heading = "Baselines"
     )]
     pub lagrangian: Option<f64>,
+    /// PID Lagrangian SAC (OmniSafe's SACPID: its gains kp 1e-6, ki 1e-7, kd 1e-7, updated every
+    /// step) keeping the mean episode cost of the last 50 episodes at D; other gains in a
+    /// configuration's [safety] ([safety] method = "pid", cost_limit = D).
+    #[arg(
+        long,
+        value_name = "D",
+        allow_negative_numbers = true,
+        conflicts_with = "recovery",
+        help_heading = "Baselines"
+    )]
+    pub pid: Option<f64>,
+    /// Lagrangian SAC's multiplier rate: Adam's learning rate on lambda, one step per episode
+    /// [default: 0.01] ([safety] lambda_lr).
+    #[arg(long, value_name = "LR", requires = "lagrangian", help_heading = "Baselines")]
+    pub lambda_lr: Option<f64>,
+    /// Normalise the cost the cost critic learns from, as OmniSafe's cost_normalize: (c - mean)
+    /// / std of the costs so far, clipped to +-5 ([safety] cost_normalize = true).
+    #[arg(long, help_heading = "Baselines")]
+    pub cost_normalize: bool,
+    /// Clip the gradient norms of the actor, the reward critics and the cost critic at N, as
+    /// OmniSafe's max_grad_norm (40) ([safety] max_grad_norm = N).
+    #[arg(long, value_name = "N", help_heading = "Baselines")]
+    pub max_grad_norm: Option<f64>,
     /// Recovery RL (model-free): a safety critic and a recovery policy pretrained on the
     /// demonstrations; the recovery policy acts when Q_risk(s, a) > EPS_RISK, in (0, 1)
     /// ([safety] method = "recovery", eps_risk = EPS_RISK).
@@ -44,16 +68,28 @@ pub struct SafetyFlags {
 
 impl SafetyFlags {
     /// Sets `[safety]` from the flags given (a flag replaces the configuration's section, except
-    /// that `--recovery` keeps a configuration's other Recovery RL settings).
-    pub fn apply(&self, config: &mut RunConfig) {
+    /// that `--recovery` keeps a configuration's other Recovery RL settings and `--pid` its
+    /// other PID settings).
+    ///
+    /// # Errors
+    /// `--cost-normalize` or `--max-grad-norm` without a Lagrangian agent.
+    pub fn apply(&self, config: &mut RunConfig) -> anyhow::Result<()> {
         if let Some(penalty) = self.penalty {
             config.safety = Some(SafetyConfig::Penalty { penalty });
         }
         if let Some(cost_limit) = self.lagrangian {
             config.safety = Some(SafetyConfig::Lagrangian(LagrangianConfig {
                 cost_limit,
+                lambda_lr: self.lambda_lr.unwrap_or(LagrangianConfig::default().lambda_lr),
                 ..LagrangianConfig::default()
             }));
+        }
+        if let Some(cost_limit) = self.pid {
+            let base = match &config.safety {
+                Some(SafetyConfig::Pid(p)) => p.clone(),
+                _ => PidConfig::default(),
+            };
+            config.safety = Some(SafetyConfig::Pid(PidConfig { cost_limit, ..base }));
         }
         if let Some(eps_risk) = self.recovery {
             // Over a configuration's own Recovery RL settings: its `pretrain_steps` (and
@@ -68,5 +104,20 @@ impl SafetyFlags {
                 ..base
             }));
         }
+        if self.cost_normalize || self.max_grad_norm.is_some() {
+            let (normalize, clip) = match &mut config.safety {
+                Some(SafetyConfig::Lagrangian(l)) => (&mut l.cost_normalize, &mut l.max_grad_norm),
+                Some(SafetyConfig::Pid(p)) => (&mut p.cost_normalize, &mut p.max_grad_norm),
+                _ => anyhow::bail!(
+                    "--cost-normalize and --max-grad-norm are options of the Lagrangian agents: give \
+                     --lagrangian or --pid (or a configuration with [safety] method = \"lagrangian\" or \"pid\")"
+                ),
+            };
+            *normalize |= self.cost_normalize;
+            if self.max_grad_norm.is_some() {
+                *clip = self.max_grad_norm;
+            }
+        }
+        Ok(())
     }
 }

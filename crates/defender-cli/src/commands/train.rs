@@ -150,7 +150,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
     if args.record_episodes.is_some() {
         config.record_episodes.clone_from(&args.record_episodes);
     }
-    args.safety.apply(&mut config);
+    args.safety.apply(&mut config)?;
     let wants_defender = args.strategy.is_some()
         || (args.demos.is_some() && !args.learn_from_demos)
         || args.num_demos.is_some()

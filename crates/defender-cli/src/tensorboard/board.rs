@@ -110,6 +110,7 @@ pub fn update_scalars(row: &UpdateRow) -> Vec<(&'static str, f64)> {
     v.extend(row.recovery_steps.map(|n| ("safety/recovery_steps", n as f64)));
     v.extend(row.qc_loss.map(|a| ("train/qc_loss", a)));
     v.extend(row.lagrange_multiplier.map(|a| ("train/lagrange_multiplier", f64::from(a))));
+    v.extend(row.qc_mean.map(|a| ("train/qc_mean", a)));
     v
 }
 

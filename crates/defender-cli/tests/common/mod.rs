@@ -77,3 +77,44 @@ pub fn metrics_without_wall(dir: &Path) -> Vec<String> {
         })
         .collect()
 }
+
+/// Starts `defender args` (writing into `out`), waits until `ready()` holds, then stops it with
+/// SIGTERM without racing its end: the process is frozen (SIGSTOP) first, and only a process
+/// still alive then is sent SIGTERM and let go (SIGCONT). A run that ended first is started
+/// again from an empty `out` (at most three times). Returns the stopped run's exit code.
+#[allow(dead_code)]
+pub fn stop_with_sigterm_when(args: &[String], out: &Path, ready: impl Fn() -> bool) -> Option<i32> {
+    use std::time::{Duration, Instant};
+    let signal = |pid: u32, sig: &str| {
+        let status = Command::new("kill").args(["-s", sig, &pid.to_string()]).status().expect("kill");
+        assert!(status.success(), "kill -s {sig} {pid}");
+    };
+    for _ in 0..3 {
+        let _ = std::fs::remove_dir_all(out);
+        let mut child = command()
+            .args(args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("spawn defender");
+        let start = Instant::now();
+        while !ready() && start.elapsed() < Duration::from_secs(120) {
+            if child.try_wait().expect("try_wait").is_some() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let pid = child.id();
+        if child.try_wait().expect("try_wait").is_some() {
+            continue; // it ended before it could be stopped: again
+        }
+        signal(pid, "STOP");
+        if child.try_wait().expect("try_wait").is_some() {
+            continue;
+        }
+        signal(pid, "TERM");
+        signal(pid, "CONT");
+        return child.wait().expect("wait").code();
+    }
+    panic!("defender {args:?} ended three times before it could be stopped");
+}

@@ -9,16 +9,26 @@
 //!
 //! `a'` is the next action SAC sampled for its reward target in the same step, not the actor's
 //! deterministic action OmniSafe takes (docs/decisions-baselines.md, "Lagrangian SAC").
+//!
+//! Bounded (the default since the repair, docs/decisions-baselines.md, "The cost critic
+//! repaired"): a discounted sum of per-step costs in `[c_lo, c_hi]` lies in
+//! `[lo, hi] = [c_lo, c_hi] / (1 - gamma)`, so the network's output is a sigmoid `p` and
+//! `Q_c = lo + (hi - lo) p`: the actor, which minimises `Q_c`, cannot find actions where the
+//! critic extrapolates below any cost (the first runs' linear critic reached -40 to -80 there).
+//! The loss is that of `Q_c` itself, `mean (Q_c - y)^2`, its gradient taken through `p`; the
+//! targets are clamped into `[lo, hi]`. Unbounded, `lo = 0` and `hi - lo = 1` with a linear
+//! output: exactly the first runs' arithmetic.
 
 use std::path::Path;
 
-use defender_nn::{AdamConfig, Parallelism};
+use defender_nn::{Activation, AdamConfig, Parallelism};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::config::SacConfig;
 use crate::critics::Critic;
 use crate::error::RlError;
+use crate::nets::clip_grad_norm;
 use crate::replay::Batch;
 use crate::seed::{SeedPurpose, derive_seed};
 
@@ -32,7 +42,14 @@ pub(crate) struct CostCritic {
     gamma: f32,
     tau: f32,
     target_update_interval: u64,
-    /// Bellman targets of the last step.
+    /// `Q_c = lo + scale p`, `p` the network's output.
+    lo: f32,
+    scale: f32,
+    /// Whether `p` is a sigmoid and the targets are clamped (see the module's docs).
+    bounded: bool,
+    /// Gradient-norm clipping of the critic's own step.
+    max_grad_norm: Option<f32>,
+    /// Bellman targets of the last step, in `p`'s units: `(y - lo) / scale`.
     y: Vec<f32>,
     /// `dL/dQ_c` of the actor's cost term, per row.
     grad: Vec<f32>,
@@ -40,6 +57,17 @@ pub(crate) struct CostCritic {
     pub(crate) updates: u64,
     /// The loss of the last step (before it).
     pub(crate) last_loss: f32,
+    /// The mean `Q_c` at the batch's states and the actor's actions, of the last actor term.
+    pub(crate) last_qc_mean: f32,
+}
+
+/// The range of per-step costs the cost critic learns from, and its clipping.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct CostRange {
+    /// `[c_lo, c_hi]`: every stored cost lies within (`None`: the unbounded linear critic).
+    pub(crate) per_step: Option<(f32, f32)>,
+    /// Gradient-norm clipping of the critic's step.
+    pub(crate) max_grad_norm: Option<f32>,
 }
 
 impl CostCritic {
@@ -54,12 +82,26 @@ impl CostCritic {
         obs_dim: usize,
         act_dim: usize,
         seed: u64,
+        range: CostRange,
     ) -> Result<Self, RlError> {
         let mut init = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Init, 1));
         let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
         let b = config.batch_size;
-        let critic = Critic::new(obs_dim + act_dim, &config.net_arch, adam, b, &mut init)?;
+        let output = if range.per_step.is_some() { Activation::Sigmoid } else { Activation::Identity };
+        let critic = Critic::with_output(obs_dim + act_dim, &config.net_arch, adam, b, &mut init, output)?;
+        let horizon = 1.0 / (1.0 - config.gamma);
+        let (lo, scale) = match range.per_step {
+            Some((c_lo, c_hi)) => {
+                ((f64::from(c_lo) * horizon) as f32, (f64::from(c_hi - c_lo) * horizon) as f32)
+            }
+            None => (0.0, 1.0),
+        };
         Ok(Self {
+            lo,
+            scale,
+            bounded: range.per_step.is_some(),
+            max_grad_norm: range.max_grad_norm,
+            last_qc_mean: 0.0,
             critic,
             obs_dim,
             act_dim,
@@ -87,13 +129,24 @@ impl CostCritic {
     /// [`RlError::Diverged`] if the loss is not finite.
     pub(crate) fn step(&mut self, batch: &Batch, critic_in: &[f32], next_in: &[f32]) -> Result<f32, RlError> {
         let b = self.batch_size;
+        let (lo, scale, gamma) = (self.lo, self.scale, self.gamma);
         self.critic.forward_target(next_in, b);
         for i in 0..b {
             // As the reward critics: a truncated transition bootstraps, a terminated one does not.
-            self.y[i] = batch.costs[i] + (1.0 - batch.terminated[i]) * self.gamma * self.critic.q[i];
+            let next = lo + scale * self.critic.q[i];
+            let y = batch.costs[i] + (1.0 - batch.terminated[i]) * gamma * next;
+            let p = (y - lo) / scale;
+            self.y[i] = if self.bounded { p.clamp(0.0, 1.0) } else { p };
         }
-        self.critic.train_step(critic_in, &self.y, b, &|diff| 2.0 * diff / b as f32);
-        let loss = self.critic.q.iter().zip(&self.y).map(|(q, y)| (q - y) * (q - y)).sum::<f32>() / b as f32;
+        // d/dp mean (lo + scale p - y)^2 = 2 scale^2 (p - p_y) / b (2 (Q - y) / b unbounded).
+        let k = 2.0 * scale * scale;
+        self.critic.backward_step(critic_in, &self.y, b, &|diff| k * diff / b as f32);
+        if let Some(max) = self.max_grad_norm {
+            clip_grad_norm(&mut self.critic.net, max);
+        }
+        self.critic.apply_step();
+        let loss =
+            self.critic.q.iter().zip(&self.y).map(|(q, y)| (scale * (q - y)).powi(2)).sum::<f32>() / b as f32;
         self.updates += 1;
         if self.updates.is_multiple_of(self.target_update_interval) {
             self.critic.polyak(self.tau);
@@ -110,8 +163,10 @@ impl CostCritic {
     pub(crate) fn actor_term(&mut self, pi_in: &[f32], weight: f32, dact: &mut [f32]) -> f32 {
         let (b, o, a) = (self.batch_size, self.obs_dim, self.act_dim);
         self.critic.forward(pi_in, b);
-        let sum: f32 = self.critic.q.iter().sum();
-        self.grad.fill(weight);
+        let sum_p: f32 = self.critic.q.iter().sum();
+        let sum = b as f32 * self.lo + self.scale * sum_p;
+        self.last_qc_mean = sum / b as f32;
+        self.grad.fill(weight * self.scale);
         self.critic.backward_input(&self.grad, b);
         let d = &self.critic.dinput;
         for i in 0..b {
@@ -120,6 +175,14 @@ impl CostCritic {
             }
         }
         weight * sum
+    }
+
+    /// `Q_c` of the `[s | a]` rows `input`, straight from the network: `lo + scale * output`.
+    #[cfg(test)]
+    pub(crate) fn q_values(&mut self, input: &[f32]) -> Vec<f32> {
+        let b = self.batch_size;
+        let out = self.critic.net.forward(crate::nets::rows(input, b, self.obs_dim + self.act_dim));
+        (0..b).map(|i| self.lo + self.scale * *out.get(i, 0)).collect()
     }
 
     /// Saves the critic as `qc` (with its optimiser) and `qc_target`.
@@ -160,21 +223,45 @@ mod tests {
         (batch, critic_in, next_in)
     }
 
-    fn critic() -> CostCritic {
+    /// The bounded critic of costs in `[0, 1]` (`Some`), or the first runs' linear one.
+    fn critic_with(per_step: Option<(f32, f32)>) -> CostCritic {
         let config = SacConfig { net_arch: vec![16, 16], batch_size: 8, ..SacConfig::default() };
-        CostCritic::new(&config, 3, 2, 9).unwrap()
+        CostCritic::new(&config, 3, 2, 9, CostRange { per_step, max_grad_norm: None }).unwrap()
     }
 
-    /// `mean (Q_c(s, a) - y)^2` for fixed targets `y`.
-    fn loss(c: &mut CostCritic, critic_in: &[f32], y: &[f32]) -> f32 {
+    const BOUNDED: Option<(f32, f32)> = Some((0.0, 1.0));
+
+    /// `mean (Q_c(s, a) - y)^2` for fixed targets `y` (in the network's units), summed in f64.
+    fn loss(c: &mut CostCritic, critic_in: &[f32], y: &[f32]) -> f64 {
+        let scale = f64::from(c.scale);
         let q = c.critic.net.forward(rows(critic_in, 8, 5));
-        (0..8).map(|i| (q.get(i, 0) - y[i]).powi(2)).sum::<f32>() / 8.0
+        (0..8).map(|i| (scale * f64::from(q.get(i, 0) - y[i])).powi(2)).sum::<f64>() / 8.0
     }
 
     #[test]
     fn the_target_adds_the_discounted_next_value_unless_terminated() {
+        for per_step in [None, BOUNDED] {
+            let (batch, critic_in, next_in) = batch();
+            let mut c = critic_with(per_step);
+            let target = c.critic.target.forward(rows(&next_in, 8, 5));
+            let next_p: Vec<f32> = (0..8).map(|i| *target.get(i, 0)).collect();
+            c.step(&batch, &critic_in, &next_in).unwrap();
+            // Bounded: Q_c' = 100 p' (costs in [0, 1], gamma 0.99), targets in p's units / 100.
+            let (lo, scale) = if per_step.is_some() { (0.0, 100.0) } else { (0.0, 1.0) };
+            assert!((c.scale - scale).abs() < 1e-3 && c.lo == lo, "{} {}", c.lo, c.scale);
+            for (i, (&p, &cost)) in next_p.iter().zip(&batch.costs).enumerate() {
+                let raw = if i % 4 == 0 { cost } else { cost + 0.99 * (lo + c.scale * p) };
+                let expected = (raw - lo) / c.scale;
+                assert!((c.y[i] - expected).abs() < 1e-6, "row {i}: {} against {expected}", c.y[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn the_first_runs_linear_critic_is_unchanged() {
+        // The linear critic's target is exactly `c + 0.99 Q'` (bit for bit: lagrangian-v1).
         let (batch, critic_in, next_in) = batch();
-        let mut c = critic();
+        let mut c = critic_with(None);
         let target = c.critic.target.forward(rows(&next_in, 8, 5));
         let next_q: Vec<f32> = (0..8).map(|i| *target.get(i, 0)).collect();
         c.step(&batch, &critic_in, &next_in).unwrap();
@@ -185,16 +272,60 @@ mod tests {
     }
 
     #[test]
+    fn the_bounded_critic_stays_within_what_a_cost_can_be_while_the_actor_drives_it() {
+        // As Lagrangian SAC's actor does: the actions move down Q_c's gradient (kept in [-1, 1]
+        // as tanh keeps them), the critic keeps learning from the batch's costs of 0 and 1.
+        let (b, o, a) = (8, 3, 2);
+        let drive = |per_step| {
+            let (batch, critic_in, next_in) = batch();
+            let mut c = critic_with(per_step);
+            let mut acts = batch.actions.clone();
+            let mut pi_in = vec![0.0; b * (o + a)];
+            let (mut lowest, mut highest) = (f32::INFINITY, f32::NEG_INFINITY);
+            for _ in 0..400 {
+                c.step(&batch, &critic_in, &next_in).unwrap();
+                concat_rows(&mut pi_in, &batch.obs, &acts, b, o, a);
+                let mut dact = vec![0.0; b * a];
+                c.actor_term(&pi_in, 1.0, &mut dact);
+                for (x, d) in acts.iter_mut().zip(&dact) {
+                    *x = (*x - 0.5 * d.signum()).clamp(-1.0, 1.0);
+                }
+                concat_rows(&mut pi_in, &batch.obs, &acts, b, o, a);
+                let q = c.q_values(&pi_in);
+                c.actor_term(&pi_in, 0.0, &mut dact);
+                assert!((c.last_qc_mean - q.iter().sum::<f32>() / b as f32).abs() < 1e-3, "qc_mean");
+                lowest = q.iter().fold(lowest, |m, &v| m.min(v));
+                highest = q.iter().fold(highest, |m, &v| m.max(v));
+            }
+            (lowest, highest)
+        };
+        let (lowest, highest) = drive(BOUNDED);
+        assert!(lowest >= 0.0 && highest <= 100.0, "bounded: Q_c in [{lowest}, {highest}]");
+        // The linear critic, driven alike, leaves what a cost can be: the test can fail.
+        let (lowest, _) = drive(None);
+        assert!(lowest < 0.0, "linear: the lowest Q_c is {lowest}");
+    }
+
+    #[test]
     fn the_cost_critic_gradient_matches_finite_differences() {
+        // Bounded with a range whose Q_c is about 1 (scale 2): with costs up to 1, Q_c near 50
+        // makes the f32 loss too coarse for difference quotients over 2h.
+        for per_step in [None, Some((0.0, 0.02))] {
+            check_gradient(per_step);
+        }
+    }
+
+    fn check_gradient(per_step: Option<(f32, f32)>) {
         let (batch, critic_in, next_in) = batch();
-        let before = critic();
+        let before = critic_with(per_step);
         let mut stepped = before.clone();
         let reported = stepped.step(&batch, &critic_in, &next_in).unwrap();
         let analytic = stepped.critic.net.grads().to_vec();
         let y = stepped.y.clone();
         let mut c = before;
-        assert!((loss(&mut c, &critic_in, &y) - reported).abs() < 1e-6);
-        let h = 2e-3f32;
+        let reported = f64::from(reported);
+        assert!((loss(&mut c, &critic_in, &y) - reported).abs() < 1e-6 * reported.max(1.0), "{reported}");
+        let h = 5e-4f32;
         let (mut checked, mut kinks) = (0, 0);
         for k in (0..c.critic.net.num_params()).step_by(3) {
             let p = c.critic.net.params()[k];
@@ -203,8 +334,8 @@ mod tests {
             c.critic.net.params_mut()[k] = p - h;
             let down = loss(&mut c, &critic_in, &y);
             c.critic.net.params_mut()[k] = p;
-            let numeric = (up - down) / (2.0 * h);
-            // 1e-4: a few f32 roundings of the loss over 2h.
+            let numeric = ((up - down) / (2.0 * f64::from(h))) as f32;
+            // 1e-4: a few f32 roundings of the network's outputs over 2h.
             if (numeric - analytic[k]).abs() > 1e-4 + 2e-2 * numeric.abs().max(analytic[k].abs()) {
                 eprintln!("param {k}: analytic {} numeric {numeric}", analytic[k]);
                 kinks += 1;

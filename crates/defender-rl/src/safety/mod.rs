@@ -4,6 +4,8 @@
 //!
 //! - `penalty`: the stored reward is `r - penalty * c` ([`penalty::Penalized`], any algorithm);
 //! - `lagrangian`: SAC with a cost critic and a Lagrange multiplier, as OmniSafe's SACLag;
+//! - `pid`: the same SAC with the multiplier set by a PID controller (Stooke, Achiam and Abbeel
+//!   2020), as OmniSafe's SACPID;
 //! - `recovery`: Recovery RL (Thananjeyan et al. 2021), model-free: a safety critic pretrained
 //!   on the demonstrations and a recovery policy that takes over when it predicts a violation.
 //!
@@ -11,9 +13,12 @@
 //! learns from, never what is reported).
 
 pub(crate) mod cost_critic;
+pub mod cost_normalizer;
+mod episode_costs;
 pub mod lagrangian;
 pub mod multiplier;
 pub mod penalty;
+pub mod pid;
 pub mod recovery;
 mod recovery_policy;
 mod risk_critic;
@@ -33,6 +38,8 @@ pub enum SafetyConfig {
     },
     /// Lagrangian SAC (OmniSafe's SACLag rule).
     Lagrangian(LagrangianConfig),
+    /// PID Lagrangian SAC (OmniSafe's SACPID rule).
+    Pid(PidConfig),
     /// Recovery RL, model-free.
     Recovery(RecoveryConfig),
 }
@@ -53,6 +60,123 @@ pub struct LagrangianConfig {
     /// `J_c` is the mean cost of this many last training episodes.
     #[serde(default = "default_window")]
     pub window: usize,
+    /// The largest cost of one step (1 on every shipped task: a crash, or a step over the
+    /// velocity limit). A larger or negative cost is refused.
+    #[serde(default = "default_cost_max")]
+    pub cost_max: f64,
+    /// `Q_c` kept within what a discounted sum of costs can be, `[c_min, c_max] / (1 - gamma)`,
+    /// by a scaled sigmoid output; `false`: the unbounded linear output of the first runs
+    /// (`lagrangian-v1`).
+    #[serde(default = "default_true")]
+    pub bounded_cost_critic: bool,
+    /// OmniSafe's `cost_normalize`: each step's cost, before the cost critic sees it, is
+    /// `(c - mean) / max(std, 0.01)` of the costs so far, clipped to +-5. `J_c` reads raw costs.
+    #[serde(default)]
+    pub cost_normalize: bool,
+    /// OmniSafe's `max_grad_norm` (40): the actor's, the reward critics' (jointly) and the cost
+    /// critic's gradients are each scaled to this norm when longer. Absent: no clipping.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_grad_norm: Option<f64>,
+}
+
+/// PID Lagrangian SAC's settings: OmniSafe 0.5's `PIDLagrangian` (`common/pid_lagrange.py`) with
+/// the defaults of its `configs/off-policy/SACPID.yaml`. The controller steps once per
+/// environment step once learning has started, as OmniSafe's `_update` calls `pid_update`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PidConfig {
+    /// `d`: the target mean episode cost (as [`LagrangianConfig::cost_limit`]).
+    pub cost_limit: f64,
+    /// The integral term's initial value (OmniSafe's `lagrangian_multiplier_init`: 0.001).
+    #[serde(default = "default_lambda_init")]
+    pub lambda_init: f64,
+    /// The proportional gain `K_p` (OmniSafe: 1e-6).
+    #[serde(default = "default_pid_kp")]
+    pub kp: f64,
+    /// The integral gain `K_i` (OmniSafe: 1e-7).
+    #[serde(default = "default_pid_ki")]
+    pub ki: f64,
+    /// The derivative gain `K_d` (OmniSafe: 1e-7).
+    #[serde(default = "default_pid_kd")]
+    pub kd: f64,
+    /// How many updates back the derivative compares with (`pid_d_delay`: 10).
+    #[serde(default = "default_d_delay")]
+    pub d_delay: usize,
+    /// The EMA factor of the proportional error (`pid_delta_p_ema_alpha`: 0.95).
+    #[serde(default = "default_ema")]
+    pub delta_p_ema_alpha: f64,
+    /// The EMA factor of the cost the derivative reads (`pid_delta_d_ema_alpha`: 0.95).
+    #[serde(default = "default_ema")]
+    pub delta_d_ema_alpha: f64,
+    /// OmniSafe's `sum_norm` (true): with it (or `diff_norm`) `penalty_max` does not cap.
+    #[serde(default = "default_true")]
+    pub sum_norm: bool,
+    /// OmniSafe's `diff_norm` (false): the integral and the output clamped to [0, 1].
+    #[serde(default)]
+    pub diff_norm: bool,
+    /// The output's cap when neither norm is set (`penalty_max`: 100).
+    #[serde(default = "default_penalty_max")]
+    pub penalty_max: f64,
+    /// `J_c` is the mean cost of this many last training episodes.
+    #[serde(default = "default_window")]
+    pub window: usize,
+    /// The largest cost of one step (1 on every shipped task: a crash, or a step over the
+    /// velocity limit). A larger or negative cost is refused.
+    #[serde(default = "default_cost_max")]
+    pub cost_max: f64,
+    /// `Q_c` kept within what a discounted sum of costs can be, `[c_min, c_max] / (1 - gamma)`,
+    /// by a scaled sigmoid output; `false`: the unbounded linear output of the first runs
+    /// (`lagrangian-v1`).
+    #[serde(default = "default_true")]
+    pub bounded_cost_critic: bool,
+    /// OmniSafe's `cost_normalize`: each step's cost, before the cost critic sees it, is
+    /// `(c - mean) / max(std, 0.01)` of the costs so far, clipped to +-5. `J_c` reads raw costs.
+    #[serde(default)]
+    pub cost_normalize: bool,
+    /// OmniSafe's `max_grad_norm` (40): the actor's, the reward critics' (jointly) and the cost
+    /// critic's gradients are each scaled to this norm when longer. Absent: no clipping.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_grad_norm: Option<f64>,
+}
+
+/// The cost critic's settings, as both Lagrangian agents hold them (docs/decisions-baselines.md,
+/// "The cost critic repaired"); see [`LagrangianConfig`]'s fields of the same names.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CostCriticConfig {
+    /// The largest cost of one step.
+    pub cost_max: f64,
+    /// `Q_c` bounded by a scaled sigmoid.
+    pub bounded_cost_critic: bool,
+    /// Costs normalised as OmniSafe's `CostNormalize`.
+    pub cost_normalize: bool,
+    /// Gradient-norm clipping.
+    pub max_grad_norm: Option<f64>,
+}
+
+impl Default for CostCriticConfig {
+    /// The repaired critic: bounded, raw costs of at most 1, no clipping.
+    fn default() -> Self {
+        Self {
+            cost_max: default_cost_max(),
+            bounded_cost_critic: true,
+            cost_normalize: false,
+            max_grad_norm: None,
+        }
+    }
+}
+
+impl CostCriticConfig {
+    fn validate(&self) -> Result<(), RlError> {
+        if !(self.cost_max.is_finite() && self.cost_max > 0.0) {
+            return Err(bad("cost_max", self.cost_max, "a finite number > 0"));
+        }
+        if let Some(n) = self.max_grad_norm
+            && !(n.is_finite() && n > 0.0)
+        {
+            return Err(bad("max_grad_norm", n, "a finite number > 0"));
+        }
+        Ok(())
+    }
 }
 
 /// Recovery RL's settings.
@@ -78,6 +202,34 @@ impl Default for LagrangianConfig {
             lambda_init: default_lambda_init(),
             lambda_lr: default_lambda_lr(),
             window: default_window(),
+            cost_max: default_cost_max(),
+            bounded_cost_critic: true,
+            cost_normalize: false,
+            max_grad_norm: None,
+        }
+    }
+}
+
+impl Default for PidConfig {
+    /// OmniSafe's SACPID gains and this project's window; `cost_limit` 0.
+    fn default() -> Self {
+        Self {
+            cost_limit: 0.0,
+            lambda_init: default_lambda_init(),
+            kp: default_pid_kp(),
+            ki: default_pid_ki(),
+            kd: default_pid_kd(),
+            d_delay: default_d_delay(),
+            delta_p_ema_alpha: default_ema(),
+            delta_d_ema_alpha: default_ema(),
+            sum_norm: true,
+            diff_norm: false,
+            penalty_max: default_penalty_max(),
+            window: default_window(),
+            cost_max: default_cost_max(),
+            bounded_cost_critic: true,
+            cost_normalize: false,
+            max_grad_norm: None,
         }
     }
 }
@@ -102,9 +254,57 @@ fn default_window() -> usize {
 fn default_pretrain_steps() -> u64 {
     10_000
 }
+fn default_pid_kp() -> f64 {
+    1e-6
+}
+fn default_pid_ki() -> f64 {
+    1e-7
+}
+fn default_pid_kd() -> f64 {
+    1e-7
+}
+fn default_d_delay() -> usize {
+    10
+}
+fn default_ema() -> f64 {
+    0.95
+}
+fn default_penalty_max() -> f64 {
+    100.0
+}
+fn default_cost_max() -> f64 {
+    1.0
+}
+fn default_true() -> bool {
+    true
+}
 
 fn bad(field: &'static str, value: impl std::fmt::Display, expected: &'static str) -> RlError {
     RlError::Config { field, value: value.to_string(), expected }
+}
+
+impl LagrangianConfig {
+    /// Its cost critic's settings.
+    pub fn critic(&self) -> CostCriticConfig {
+        CostCriticConfig {
+            cost_max: self.cost_max,
+            bounded_cost_critic: self.bounded_cost_critic,
+            cost_normalize: self.cost_normalize,
+            max_grad_norm: self.max_grad_norm,
+        }
+    }
+}
+
+impl PidConfig {
+    /// Its cost critic's settings.
+    pub fn critic(&self) -> CostCriticConfig {
+        CostCriticConfig {
+            cost_max: self.cost_max,
+            bounded_cost_critic: self.bounded_cost_critic,
+            cost_normalize: self.cost_normalize,
+            max_grad_norm: self.max_grad_norm,
+        }
+    }
 }
 
 impl SafetyConfig {
@@ -113,6 +313,7 @@ impl SafetyConfig {
         match self {
             Self::Penalty { .. } => "penalty",
             Self::Lagrangian(_) => "lagrangian",
+            Self::Pid(_) => "pid",
             Self::Recovery(_) => "recovery",
         }
     }
@@ -141,6 +342,34 @@ impl SafetyConfig {
                 if c.window == 0 {
                     return Err(bad("window", 0, "at least 1 episode"));
                 }
+                c.critic().validate()?;
+            }
+            Self::Pid(c) => {
+                if !(c.cost_limit.is_finite() && c.cost_limit >= 0.0) {
+                    return Err(bad("cost_limit", c.cost_limit, "a finite number >= 0"));
+                }
+                if !(c.lambda_init.is_finite() && c.lambda_init >= 0.0) {
+                    return Err(bad("lambda_init", c.lambda_init, "a finite number >= 0"));
+                }
+                for (field, v) in [("kp", c.kp), ("ki", c.ki), ("kd", c.kd), ("penalty_max", c.penalty_max)] {
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(bad(field, v, "a finite number >= 0"));
+                    }
+                }
+                for (field, v) in
+                    [("delta_p_ema_alpha", c.delta_p_ema_alpha), ("delta_d_ema_alpha", c.delta_d_ema_alpha)]
+                {
+                    if !(0.0..1.0).contains(&v) {
+                        return Err(bad(field, v, "a number in [0, 1)"));
+                    }
+                }
+                if c.d_delay == 0 {
+                    return Err(bad("d_delay", 0, "at least 1 update"));
+                }
+                if c.window == 0 {
+                    return Err(bad("window", 0, "at least 1 episode"));
+                }
+                c.critic().validate()?;
             }
             Self::Recovery(c) => {
                 if !(c.gamma_risk > 0.0 && c.gamma_risk < 1.0) {
@@ -161,12 +390,17 @@ impl SafetyConfig {
     /// [`RlError::Config`] naming the key.
     pub fn validate_for_crash_cost(&self) -> Result<(), RlError> {
         self.validate()?;
-        if let Self::Lagrangian(c) = self
-            && c.cost_limit > 1.0
+        let limit = match self {
+            Self::Lagrangian(c) => Some(c.cost_limit),
+            Self::Pid(c) => Some(c.cost_limit),
+            _ => None,
+        };
+        if let Some(limit) = limit
+            && limit > 1.0
         {
             return Err(bad(
                 "cost_limit",
-                c.cost_limit,
+                limit,
                 "a crash probability per episode in [0, 1] (the task's cost is 1 per crash)",
             ));
         }
@@ -204,7 +438,7 @@ mod tests {
             other => panic!("{other:?}"),
         };
         assert_eq!(field(SafetyConfig::Penalty { penalty: -1.0 }), "penalty");
-        let lag = |d| LagrangianConfig { cost_limit: d, lambda_init: 0.001, lambda_lr: 0.01, window: 50 };
+        let lag = |d| LagrangianConfig { cost_limit: d, ..LagrangianConfig::default() };
         assert_eq!(field(SafetyConfig::Lagrangian(lag(1.5))), "cost_limit");
         assert_eq!(field(SafetyConfig::Lagrangian(lag(-0.1))), "cost_limit");
         assert!(SafetyConfig::Lagrangian(lag(25.0)).validate().is_ok());

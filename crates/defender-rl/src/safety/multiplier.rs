@@ -7,10 +7,9 @@
 //! step (docs/decisions-baselines.md, "Lagrangian SAC": about 5-10 times faster than OmniSafe's
 //! on Hopper, and without its warm-up, which would leave most of a 300k-step run unconstrained).
 
-use std::collections::VecDeque;
-
 use serde::{Deserialize, Serialize};
 
+use super::episode_costs::EpisodeCosts;
 use crate::nets::ScalarAdam;
 use crate::safety::LagrangianConfig;
 
@@ -23,12 +22,9 @@ pub struct Multiplier {
     opt: ScalarAdam,
     /// `d`.
     cost_limit: f64,
-    /// How many finished episodes `J_c` averages.
-    window: usize,
-    /// The costs of the last `window` finished training episodes, oldest first.
-    costs: VecDeque<f64>,
-    /// The cost of the episode under way so far.
-    running: f64,
+    /// `J_c`'s episodes (its fields flattened: the checkpoint's JSON is that of earlier runs).
+    #[serde(flatten)]
+    episodes: EpisodeCosts,
     /// Adam steps taken.
     updates: u64,
 }
@@ -40,9 +36,7 @@ impl Multiplier {
             lambda: config.lambda_init as f32,
             opt: ScalarAdam::new(config.lambda_lr),
             cost_limit: config.cost_limit,
-            window: config.window,
-            costs: VecDeque::with_capacity(config.window),
-            running: 0.0,
+            episodes: EpisodeCosts::new(config.window),
             updates: 0,
         }
     }
@@ -54,7 +48,7 @@ impl Multiplier {
 
     /// `J_c`: the mean cost of the last `window` finished episodes (`None` before the first).
     pub fn mean_episode_cost(&self) -> Option<f64> {
-        (!self.costs.is_empty()).then(|| self.costs.iter().sum::<f64>() / self.costs.len() as f64)
+        self.episodes.mean()
     }
 
     /// Adam steps taken so far.
@@ -66,16 +60,10 @@ impl Multiplier {
     /// truncated) the episode's cost joins the window and, if `learning` (the agent's warm-up is
     /// over: OmniSafe skips its warm-up epochs), `lambda` takes one step.
     pub fn observe(&mut self, cost: f64, episode_end: bool, learning: bool) {
-        self.running += cost;
-        if !episode_end {
-            return;
-        }
-        if self.costs.len() == self.window {
-            self.costs.pop_front();
-        }
-        self.costs.push_back(self.running);
-        self.running = 0.0;
-        if learning && let Some(j_c) = self.mean_episode_cost() {
+        if self.episodes.observe(cost, episode_end)
+            && learning
+            && let Some(j_c) = self.mean_episode_cost()
+        {
             self.step(j_c);
         }
     }
