@@ -52,6 +52,7 @@ fn a_recovery_run_trains_and_resumes_to_the_run_left_alone() {
     assert_eq!(safety["eps_risk"].as_float(), Some(0.3), "the flag sets eps_risk");
     assert_eq!(safety["gamma_risk"].as_float(), Some(0.7), "the configuration's gamma_risk stays");
     assert_eq!(safety["pretrain_steps"].as_integer(), Some(200));
+    assert_eq!(safety["pos_fraction"].as_float(), Some(0.3), "violations over-sampled by default");
     assert!(written["demos"].as_str().unwrap().ends_with(&format!("{ENV_ID}.npz")));
     assert_eq!(written["demos_sha256"].as_str().map(str::len), Some(64), "the demonstrations are pinned");
     let updates = read(&alone, "updates.csv");

@@ -222,8 +222,18 @@ impl ReplayBuffer {
     /// # Errors
     /// [`RlError::Config`] if the buffer is empty or the batch was made for other dimensions.
     pub fn sample_into(&self, rng: &mut ChaCha8Rng, batch: &mut Batch) -> Result<(), RlError> {
+        self.check_batch(batch)?;
         let n = self.len();
-        if n == 0 {
+        for row in 0..batch.size {
+            let i = rng.random_range(0..n);
+            self.copy_row(i, batch, row);
+        }
+        Ok(())
+    }
+
+    /// The checks of [`ReplayBuffer::sample_into`]: something stored, a batch of this shape.
+    pub(crate) fn check_batch(&self, batch: &Batch) -> Result<(), RlError> {
+        if self.is_empty() {
             return Err(RlError::Config {
                 field: "learning_starts",
                 value: "0 transitions".into(),
@@ -237,19 +247,31 @@ impl ReplayBuffer {
                 expected: "a batch made with the buffer's obs_dim and act_dim",
             });
         }
-        let (od, ad) = (self.obs_dim, self.act_dim);
-        for row in 0..batch.size {
-            let i = rng.random_range(0..n);
-            batch.obs[row * od..(row + 1) * od].copy_from_slice(&self.obs[i * od..(i + 1) * od]);
-            batch.next_obs[row * od..(row + 1) * od].copy_from_slice(&self.next_obs[i * od..(i + 1) * od]);
-            batch.actions[row * ad..(row + 1) * ad].copy_from_slice(&self.actions[i * ad..(i + 1) * ad]);
-            batch.rewards[row] = self.rewards[i];
-            batch.costs[row] = self.costs[i];
-            // Only `terminated` masks the bootstrap; `truncated` transitions bootstrap as usual.
-            batch.terminated[row] = if self.terminated[i] { 1.0 } else { 0.0 };
-            batch.bc[row] = if self.bc[i] { 1.0 } else { 0.0 };
-        }
         Ok(())
+    }
+
+    /// Copies stored transition `i` into row `row` of `batch` (whose shape the caller checked,
+    /// as [`ReplayBuffer::sample_into`] does).
+    pub(crate) fn copy_row(&self, i: usize, batch: &mut Batch, row: usize) {
+        let (od, ad) = (self.obs_dim, self.act_dim);
+        batch.obs[row * od..(row + 1) * od].copy_from_slice(&self.obs[i * od..(i + 1) * od]);
+        batch.next_obs[row * od..(row + 1) * od].copy_from_slice(&self.next_obs[i * od..(i + 1) * od]);
+        batch.actions[row * ad..(row + 1) * ad].copy_from_slice(&self.actions[i * ad..(i + 1) * ad]);
+        batch.rewards[row] = self.rewards[i];
+        batch.costs[row] = self.costs[i];
+        // Only `terminated` masks the bootstrap; `truncated` transitions bootstrap as usual.
+        batch.terminated[row] = if self.terminated[i] { 1.0 } else { 0.0 };
+        batch.bc[row] = if self.bc[i] { 1.0 } else { 0.0 };
+    }
+
+    /// The slot the next push writes (the oldest transition's once the buffer is full).
+    pub(crate) fn next_slot(&self) -> usize {
+        self.pos
+    }
+
+    /// The cost of stored transition `i`.
+    pub(crate) fn cost(&self, i: usize) -> f32 {
+        self.costs[i]
     }
 
     /// Writes the buffer (dimensions, position, and the stored rows only) to `path`.

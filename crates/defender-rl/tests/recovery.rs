@@ -25,7 +25,12 @@ fn agent(seed: u64) -> Recovery {
         ..SacConfig::default()
     };
     let sac = Sac::new(config, 3, 1, seed).expect("sac");
-    let settings = RecoveryConfig { gamma_risk: 0.8, eps_risk: 0.45, pretrain_steps: PRETRAIN };
+    let settings = RecoveryConfig {
+        gamma_risk: 0.8,
+        eps_risk: 0.45,
+        pretrain_steps: PRETRAIN,
+        ..RecoveryConfig::default()
+    };
     let mut agent = Recovery::new(sac, settings, seed).expect("recovery");
     for episode in 0..3 {
         for t in 0..20 {

@@ -64,6 +64,10 @@ pub struct SafetyFlags {
     /// Recovery RL's safety discount, in (0, 1) [default: 0.8] ([safety] gamma_risk).
     #[arg(long, value_name = "G", requires = "recovery", help_heading = "Baselines")]
     pub gamma_risk: Option<f64>,
+    /// Recovery RL's share of each safety-critic batch drawn from the stored violations, in
+    /// [0, 1) [default: 0.3, their scripts'; 0: uniform batches] ([safety] pos_fraction).
+    #[arg(long, value_name = "F", requires = "recovery", help_heading = "Baselines")]
+    pub pos_fraction: Option<f64>,
 }
 
 impl SafetyFlags {
@@ -98,9 +102,11 @@ impl SafetyFlags {
                 Some(SafetyConfig::Recovery(r)) => (r.gamma_risk, r.clone()),
                 _ => (DEFAULT_GAMMA_RISK, RecoveryConfig::default()),
             };
+            let pos_fraction = self.pos_fraction.unwrap_or(base.pos_fraction);
             config.safety = Some(SafetyConfig::Recovery(RecoveryConfig {
                 eps_risk,
                 gamma_risk: self.gamma_risk.unwrap_or(gamma_risk),
+                pos_fraction,
                 ..base
             }));
         }

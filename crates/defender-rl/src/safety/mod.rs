@@ -21,6 +21,7 @@ pub mod penalty;
 pub mod pid;
 pub mod recovery;
 mod recovery_policy;
+mod risk_batches;
 mod risk_critic;
 
 use serde::{Deserialize, Serialize};
@@ -192,6 +193,10 @@ pub struct RecoveryConfig {
     /// training (their default: 10,000).
     #[serde(default = "default_pretrain_steps")]
     pub pretrain_steps: u64,
+    /// The share of each safety-critic batch drawn from the stored violations, in [0, 1) (their
+    /// scripts' `pos_fraction` 0.3; 0: uniform batches, as the first runs, `recovery-v1`).
+    #[serde(default = "default_pos_fraction")]
+    pub pos_fraction: f64,
 }
 
 impl Default for LagrangianConfig {
@@ -238,7 +243,12 @@ impl Default for RecoveryConfig {
     /// Their pretraining length; `gamma_risk` and `eps_risk` in the middle of their scripts'
     /// ranges (a run sets both).
     fn default() -> Self {
-        Self { gamma_risk: 0.8, eps_risk: 0.3, pretrain_steps: default_pretrain_steps() }
+        Self {
+            gamma_risk: 0.8,
+            eps_risk: 0.3,
+            pretrain_steps: default_pretrain_steps(),
+            pos_fraction: default_pos_fraction(),
+        }
     }
 }
 
@@ -253,6 +263,9 @@ fn default_window() -> usize {
 }
 fn default_pretrain_steps() -> u64 {
     10_000
+}
+fn default_pos_fraction() -> f64 {
+    0.3
 }
 fn default_pid_kp() -> f64 {
     1e-6
@@ -378,6 +391,9 @@ impl SafetyConfig {
                 if !(c.eps_risk > 0.0 && c.eps_risk < 1.0) {
                     return Err(bad("eps_risk", c.eps_risk, "a number in (0, 1)"));
                 }
+                if !(0.0..1.0).contains(&c.pos_fraction) {
+                    return Err(bad("pos_fraction", c.pos_fraction, "a share of the batch in [0, 1)"));
+                }
             }
         }
         Ok(())
@@ -442,7 +458,7 @@ mod tests {
         assert_eq!(field(SafetyConfig::Lagrangian(lag(1.5))), "cost_limit");
         assert_eq!(field(SafetyConfig::Lagrangian(lag(-0.1))), "cost_limit");
         assert!(SafetyConfig::Lagrangian(lag(25.0)).validate().is_ok());
-        let rec = |g, e| RecoveryConfig { gamma_risk: g, eps_risk: e, pretrain_steps: 10 };
+        let rec = |g, e| RecoveryConfig { gamma_risk: g, eps_risk: e, pretrain_steps: 10, pos_fraction: 0.3 };
         assert_eq!(field(SafetyConfig::Recovery(rec(0.8, 1.0))), "eps_risk");
         assert_eq!(field(SafetyConfig::Recovery(rec(0.0, 0.3))), "gamma_risk");
     }

@@ -87,6 +87,7 @@ impl Recovery {
             batch_size: c.batch_size,
             buffer_size: c.buffer_size,
             gamma_risk: config.gamma_risk as f32,
+            pos_fraction: config.pos_fraction,
         };
         Ok(Self {
             risk: RiskCritic::new(shape, seed)?,

@@ -19,7 +19,9 @@ fn agent(pretrain_steps: u64) -> Recovery {
         ..SacConfig::default()
     };
     let task = Sac::new(config, 2, 1, 3).unwrap();
-    Recovery::new(task, RecoveryConfig { gamma_risk: 0.8, eps_risk: 0.3, pretrain_steps }, 3).unwrap()
+    let config =
+        RecoveryConfig { gamma_risk: 0.8, eps_risk: 0.3, pretrain_steps, ..RecoveryConfig::default() };
+    Recovery::new(task, config, 3).unwrap()
 }
 
 /// A crashed demonstration's last transition, elsewhere in the state space.
@@ -40,12 +42,45 @@ fn with_demo(mut agent: Recovery) -> Recovery {
 /// Makes both safety critics output `sigmoid(logit)` everywhere: the last layer's weights 0,
 /// its bias `logit`.
 fn set_risk(agent: &mut Recovery, logit: f32) {
-    for k in 0..2 {
+    set_risks(agent, [logit, logit]);
+}
+
+/// Makes safety critic `k` output `sigmoid(logits[k])` everywhere.
+fn set_risks(agent: &mut Recovery, logits: [f32; 2]) {
+    for (k, logit) in logits.into_iter().enumerate() {
         let p = agent.risk.critics.alone(k).net.params_mut();
         let n = p.len();
         p[n - HIDDEN - 1..n - 1].fill(0.0);
         p[n - 1] = logit;
     }
+}
+
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+#[test]
+fn the_switch_reads_the_larger_critic_strictly_above_eps_risk() {
+    // One critic above eps_risk (0.3), the other below: Q_risk is the larger, so the recovery
+    // policy acts (a min would not switch).
+    for logits in [[0.0, -3.0], [-3.0, 0.0]] {
+        let mut agent = with_demo(agent(0));
+        agent.pretrain().unwrap();
+        set_risks(&mut agent, logits);
+        assert_eq!(agent.risk(&OBS, &[0.0]).unwrap(), 0.5, "{logits:?}");
+        agent.act(&OBS, false, &mut [0.0]).unwrap();
+        assert_eq!(agent.recovery_steps(), 1, "{logits:?}");
+    }
+    // Q_risk exactly at eps_risk: not above it, the task's action stands (>= would switch).
+    let at = sigmoid(-1.0);
+    let task = Sac::new(agent(0).task.config().clone(), 2, 1, 3).unwrap();
+    let config = RecoveryConfig { eps_risk: f64::from(at), pretrain_steps: 0, ..RecoveryConfig::default() };
+    let mut agent = with_demo(Recovery::new(task, config, 3).unwrap());
+    agent.pretrain().unwrap();
+    set_risks(&mut agent, [-1.0, -4.0]);
+    assert_eq!(agent.risk(&OBS, &[0.0]).unwrap(), at);
+    agent.act(&OBS, false, &mut [0.0]).unwrap();
+    assert_eq!(agent.recovery_steps(), 0);
 }
 
 /// The actions `buffer` holds for transitions from `OBS` (sampled often enough to see them).

@@ -24,6 +24,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::recovery_policy::{RecoveryPolicy, StdState};
+use super::risk_batches::RiskBatches;
 use crate::critics::TwinCritics;
 use crate::error::RlError;
 use crate::nets::concat_rows;
@@ -50,6 +51,8 @@ pub(crate) struct RiskShape {
     /// Capacity of its replay buffer (the task agent's).
     pub(crate) buffer_size: usize,
     pub(crate) gamma_risk: f32,
+    /// The share of each batch drawn from the stored violations (0: uniform batches).
+    pub(crate) pos_fraction: f64,
 }
 
 /// The losses of one gradient step.
@@ -94,6 +97,8 @@ pub(crate) struct RiskCritic {
     pub(crate) critics: TwinCritics,
     pub(crate) policy: RecoveryPolicy,
     pub(crate) buffer: ReplayBuffer,
+    /// How batches are drawn from `buffer` (violations over-sampled).
+    batches: RiskBatches,
     pub(crate) rng: ChaCha8Rng,
     pub(crate) n_updates: u64,
     ws: Workspace,
@@ -113,6 +118,7 @@ impl RiskCritic {
             critics,
             policy,
             buffer: ReplayBuffer::new(shape.buffer_size, o, a)?,
+            batches: RiskBatches::new(shape.pos_fraction),
             rng: ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Agent, STREAM)),
             n_updates: 0,
             ws: Workspace {
@@ -144,7 +150,7 @@ impl RiskCritic {
 
     /// Stores a transition with the action that was executed.
     pub(crate) fn push(&mut self, t: &Transition<'_>) -> Result<(), RlError> {
-        self.buffer.push(t)
+        self.batches.push(&mut self.buffer, t)
     }
 
     /// One gradient step of `Q_risk` and the recovery policy on a fresh batch; `task` gives the
@@ -153,7 +159,7 @@ impl RiskCritic {
         let (b, o, a) = (self.shape.batch_size, self.shape.obs_dim, self.shape.act_dim);
         let gamma = self.shape.gamma_risk;
         let ws = &mut self.ws;
-        self.buffer.sample_into(&mut self.rng, &mut ws.batch)?;
+        self.batches.sample(&self.buffer, &mut self.rng, &mut ws.batch)?;
 
         // Target: the risk of the task policy's next action, by the larger target critic.
         task.sample_actions(&ws.batch.next_obs, b, &mut self.rng, &mut ws.actor_out, &mut ws.next_act);
@@ -241,6 +247,7 @@ impl RiskCritic {
         self.critics.load(dir)?;
         self.policy.load(dir)?;
         self.buffer.load(&dir.join("replay.bin"))?;
+        self.batches.rebuild(&self.buffer);
         self.policy.set_std_state(state.recovery_std, path)?;
         self.n_updates = state.n_updates;
         self.rng = state.rng;

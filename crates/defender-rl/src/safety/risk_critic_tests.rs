@@ -1,8 +1,10 @@
-//! The recovery policy's gradient through the sigmoid safety critics, against finite differences.
+//! The recovery policy's gradient through the sigmoid safety critics, against finite differences;
+//! the safety critic's target and Polyak step on fixed target critics.
 
 use rand::{Rng, SeedableRng};
 
 use super::*;
+use crate::SacConfig;
 
 /// A small safety critic with a filled buffer and a sampled batch.
 fn critic() -> RiskCritic {
@@ -14,6 +16,7 @@ fn critic() -> RiskCritic {
         batch_size: 8,
         buffer_size: 100,
         gamma_risk: 0.8,
+        pos_fraction: 0.0,
     };
     let mut rc = RiskCritic::new(shape, 5).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(1);
@@ -75,4 +78,58 @@ fn the_recovery_policys_gradient_matches_finite_differences() {
         check((up - down) / (2.0 * h), g, &format!("log_std {j}"));
     }
     assert!(analytic.iter().any(|g| g.abs() > 1e-5), "all gradients vanished");
+}
+
+#[test]
+fn the_target_bootstraps_the_larger_target_critic_unless_terminated_and_polyak_moves_by_tau() {
+    // Three transitions: a crash (cost 1, terminated), a plain step, a time-limit cut (truncated,
+    // which bootstraps); the target critics fixed at sigmoid(-2) and sigmoid(1) everywhere.
+    let shape = RiskShape {
+        obs_dim: 1,
+        act_dim: 1,
+        net_arch: vec![4],
+        learning_rate: 3e-4,
+        batch_size: 16,
+        buffer_size: 10,
+        gamma_risk: 0.9,
+        pos_fraction: 0.0,
+    };
+    let mut rc = RiskCritic::new(shape, 2).unwrap();
+    let kinds = [(1.0, true, false), (0.0, false, false), (0.0, false, true)];
+    for (k, &(cost, terminated, truncated)) in kinds.iter().enumerate() {
+        let x = [k as f64];
+        let t =
+            Transition { obs: &x, action: &[0.0], reward: 0.0, cost, next_obs: &x, terminated, truncated };
+        rc.push(&t).unwrap();
+    }
+    for (k, logit) in [(0, -2.0f32), (1, 1.0)] {
+        let p = rc.critics.alone(k).target.params_mut();
+        let n = p.len();
+        p[n - 5..n - 1].fill(0.0);
+        p[n - 1] = logit;
+    }
+    let before: Vec<Vec<f32>> = (0..2).map(|k| rc.critics[k].target.params().to_vec()).collect();
+    let sac = SacConfig { net_arch: vec![4], batch_size: 16, ..SacConfig::default() };
+    let mut task = Sac::new(sac, 1, 1, 0).unwrap();
+    rc.gradient_step(&mut task).unwrap();
+    let larger = 1.0 / (1.0 + (-1.0f32).exp());
+    let mut seen = [false; 3];
+    for row in 0..16 {
+        let kind = rc.ws.batch.obs[row] as usize;
+        seen[kind] = true;
+        let expected = if kind == 0 { 1.0 } else { 0.9 * larger };
+        assert!(
+            (rc.ws.target[row] - expected).abs() < 1e-6,
+            "row {row} (kind {kind}): {}",
+            rc.ws.target[row]
+        );
+    }
+    assert_eq!(seen, [true; 3], "the batch mixes the three kinds");
+    // Qt <- TAU Q + (1 - TAU) Qt, after the critics' step.
+    for (k, before) in before.iter().enumerate() {
+        let (online, target) = (rc.critics[k].net.params(), rc.critics[k].target.params());
+        for ((t, b), q) in target.iter().zip(before).zip(online) {
+            assert!((t - (TAU_RISK * q + (1.0 - TAU_RISK) * b)).abs() < 1e-6, "critic {k}");
+        }
+    }
 }
