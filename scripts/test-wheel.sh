@@ -25,7 +25,7 @@ echo "test-wheel: a fresh venv with $WHEEL"
 start=$(date +%s)
 "$PY" -m venv "$WORK/venv"
 "$WORK/venv/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
-  "$WHEEL[mujoco]" -r python/requirements-wheel-test.txt
+  "$WHEEL[cli,mujoco]" -r python/requirements-wheel-test.txt
 echo "test-wheel: installed in $(( $(date +%s) - start )) s"
 
 cd "$WORK/run"

@@ -11,10 +11,16 @@ loader's terse "cannot open shared object file").
 
 The extension module ``defender_rl._core`` links no MuJoCo: a Python process using
 Gymnasium's MuJoCo environments keeps one MuJoCo runtime; the binary runs in its own process.
+
+Neither ``mujoco`` nor Gymnasium >= 1.0 is a dependency of the wheel (the wrapper needs neither,
+and a safety-gymnasium venv must keep its mujoco 2.3.3 and gymnasium 0.28.1): the extra
+``defender-rl[cli]`` pins them, and every error below names it, with a venv of its own where
+this one holds another version.
 """
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 import os
 import platform
@@ -24,6 +30,37 @@ from pathlib import Path
 MUJOCO_VERSION = "3.17.0"
 _LIB = f"libmujoco.so.{MUJOCO_VERSION}"
 _TASK_FILES = ("hopper.xml", "walker2d_v5.xml", "inverted_double_pendulum.xml")
+#: How to get what the command needs: the extra pins mujoco==3.17.0 and gymnasium>=1.0.
+INSTALL = "pip install 'defender-rl[cli]'"
+OWN_VENV = (
+    "python -m venv ~/.venvs/defender && ~/.venvs/defender/bin/pip install 'defender-rl[cli]' "
+    "(then ~/.venvs/defender/bin/defender)"
+)
+
+
+def _installed_version(dist: str) -> str | None:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _runtime_version(libs: list[str]) -> str | None:
+    """The MuJoCo version of the runtime the package found ships (``libmujoco.so.2.3.3``):
+    what the binary would load, whatever the installed metadata says."""
+    versions = [name.split("libmujoco.so.", 1)[1] for name in libs if name.startswith("libmujoco.so.")]
+    return versions[0] if len(versions) == 1 else None
+
+
+def _fix(package: str, have: str | None) -> str:
+    """How to get the command's runtime when ``package`` is missing or at version ``have``."""
+    if have is None:
+        return f"install it with the extra that pins it: {INSTALL}"
+    return (
+        f"this Python has {package} {have}; if its other packages need that version (safety-gymnasium "
+        f"1.0.0 pins mujoco 2.3.3 and gymnasium 0.28.1), give the command a venv of its own: {OWN_VENV}; "
+        f"otherwise {INSTALL} (it replaces {package} {have})"
+    )
 
 
 class LaunchError(RuntimeError):
@@ -65,15 +102,16 @@ def mujoco_dir() -> Path:
     found = _package_dir("mujoco")
     if found is None:
         raise LaunchError(
-            f"defender needs MuJoCo {MUJOCO_VERSION}'s runtime from the `mujoco` package, which is "
-            f"not installed for {sys.executable}; install it: pip install mujoco=={MUJOCO_VERSION}"
+            f"the defender command needs MuJoCo {MUJOCO_VERSION}'s runtime from the `mujoco` package "
+            f"(mujoco=={MUJOCO_VERSION}), which is not installed for {sys.executable} (the Python "
+            f"wrapper needs none); {_fix('mujoco', None)}"
         )
     if not (found / _LIB).is_file():
         have = sorted(p.name for p in found.glob("libmujoco.so*"))
         raise LaunchError(
-            f"defender needs MuJoCo {MUJOCO_VERSION}'s runtime ({_LIB}); the `mujoco` package at "
-            f"{found} has {', '.join(have) or 'no libmujoco.so'}; install the right one: "
-            f"pip install mujoco=={MUJOCO_VERSION}"
+            f"the defender command needs MuJoCo {MUJOCO_VERSION}'s runtime ({_LIB}); the `mujoco` "
+            f"package at {found} has {', '.join(have) or 'no libmujoco.so'}; "
+            f"{_fix('mujoco', _runtime_version(have) or _installed_version('mujoco') or 'of another version')}"
         )
     return found
 
@@ -83,15 +121,16 @@ def gym_assets() -> Path:
     found = _package_dir("gymnasium")
     if found is None:
         raise LaunchError(
-            "defender reads the task files (hopper.xml, ...) of Gymnasium, which is not installed "
-            f"for {sys.executable}; install it: pip install 'gymnasium>=1.0'"
+            "the defender command reads the task files (hopper.xml, ...) of Gymnasium >= 1.0, which "
+            f"is not installed for {sys.executable}; {_fix('gymnasium', None)}"
         )
     assets = found / "envs" / "mujoco" / "assets"
     missing = [f for f in _TASK_FILES if not (assets / f).is_file()]
     if missing:
         raise LaunchError(
-            f"the Gymnasium at {found} lacks the task files {', '.join(missing)} (looked in "
-            f"{assets}); install Gymnasium 1.0 or newer: pip install 'gymnasium>=1.0'"
+            f"the defender command reads the task files of Gymnasium >= 1.0; the gymnasium at {found} "
+            f"lacks {', '.join(missing)} (looked in {assets}); "
+            f"{_fix('gymnasium', _installed_version('gymnasium') or 'of another version')}"
         )
     return assets
 

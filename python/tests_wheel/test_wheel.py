@@ -92,7 +92,7 @@ def test_missing_or_wrong_mujoco_and_gymnasium_are_named(tmp_path):
     done = defender("env", "list", cwd=tmp_path, env=env)
     assert done.returncode == 2
     assert "libmujoco.so.3.17.0" in done.stderr and "libmujoco.so.3.3.0" in done.stderr, done.stderr
-    assert "pip install mujoco==3.17.0" in done.stderr
+    assert "mujoco 3.3.0" in done.stderr and "defender-rl[cli]" in done.stderr, done.stderr
     shutil.rmtree(shadow / "mujoco")
     # A Gymnasium that works (defender_rl imports it) but has no task files where they belong.
     import gymnasium
