@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from defender_rl import DefenderError, DemoRecorder, collect_demos, derive_seed
-from defender_rl.demos import spread
+from defender_rl.demos import reset_seed, spread
 
 
 def test_spread_matches_the_rust_rule():
@@ -40,7 +40,9 @@ def test_recorder_seeds_as_the_rust_tools_and_refuses_too_few():
     crashed = rec.record(lambda o: np.array([1.0], dtype=np.float32), after_episode=7)
     assert crashed and rec.group_sizes == (0, 1)
     obs0 = rec.candidates[0][0][0]
-    expected, _ = rec.env.reset(seed=derive_seed(2, "demonstration", 7))
+    # The command line's derived seed, folded to 32 bits (every Gymnasium environment takes it).
+    assert reset_seed(2, 7) == (lambda s: (s ^ (s >> 32)) & 0xFFFFFFFF)(derive_seed(2, "demonstration", 7))
+    expected, _ = rec.env.reset(seed=reset_seed(2, 7))
     np.testing.assert_array_equal(obs0, expected)
     with pytest.raises(DefenderError, match="0 safe and 1 unsafe candidates"):
         rec.select(1, 1)
