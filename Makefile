@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench bench-peers bench-omnisafe lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel
+.PHONY: setup run test bench bench-peers bench-omnisafe lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel test-safety-gym
 
 setup:
 	@bash scripts/setup.sh
@@ -19,7 +19,8 @@ test: setup
 	# --all-targets leaves out doc tests: the crates' README examples are compiled and run here.
 	$(CARGO) test --release --workspace --doc
 	$(MAKE) --no-print-directory test-python
-	$(MAKE) --no-print-directory test-wheel
+	# One make for both, so that the wheel they test is built once.
+	$(MAKE) --no-print-directory test-wheel test-safety-gym
 
 bench: setup
 	$(CARGO) bench --workspace
@@ -68,6 +69,13 @@ wheel: setup
 # the command, a short training, the Gymnasium wrapper, and a two-node Ray cluster losing a node.
 test-wheel: wheel
 	@bash scripts/test-wheel.sh
+
+# That wheel beside safety-gymnasium 1.0.0 (part of `make test`): a fresh Python 3.10 venv with
+# numpy 1.23.5, gymnasium 0.28.1 and mujoco 2.3.3, none of which the install may change; `pip
+# check`; the wrapper and cost-labelled demonstrations on Safety-Gymnasium tasks. Skipped with a
+# banner where no Python 3.10 is found (scripts/test-beside-safety-gym.sh).
+test-safety-gym: wheel
+	@bash scripts/test-beside-safety-gym.sh
 
 # Opt-in: Stable-Baselines3 + PyTorch from PyPI (a multi-GB install): SAC with and without
 # DEFENDER on InvertedDoublePendulum-v5, and the DefenderCallback.
