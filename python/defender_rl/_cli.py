@@ -82,8 +82,9 @@ def binary() -> Path:
         )
     raise LaunchError(
         f"this defender-rl has no defender binary ({exe} is missing): it was built from source, "
-        "which builds the Python module only; install the wheel (`pip install defender-rl` or "
-        "`make wheel` then `pip install dist/defender_rl-*.whl`), or build the command with "
+        "which builds the Python module only; install the wheel with the command's runtime "
+        "(`pip install 'defender-rl[cli]'`, or `make wheel` then "
+        "`pip install \"$(ls dist/defender_rl-*.whl)[cli]\"`), or build the command with "
         "`cargo install --path crates/defender-cli`"
     )
 
