@@ -76,7 +76,7 @@ cd "$WORK/run"
 # Only the tests of python/tests that need neither Gymnasium >= 1.0 nor a MuJoCo task of it
 # (Hopper-v5 and the other v5 tasks, gym.make_vec, Minari, Ray, TensorBoard): the API itself.
 OLD_STACK_TESTS=(test_demos.py test_demos_cost.py test_step_cost.py test_episode_set.py test_costs.py
-  test_arguments.py test_wrapper.py)
+  test_cli_launcher.py test_arguments.py test_wrapper.py)
 # test_wrapper.py's tests that make Hopper-v5 (Gymnasium >= 1.0), by name.
 NOT_V5="not (test_is_a_gymnasium_wrapper_and_passes_check_env"
 NOT_V5+=" or test_async_vector_env_pickles_the_arguments or test_demonstrations_that_do_not_fit)"

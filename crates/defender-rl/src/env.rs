@@ -1,6 +1,7 @@
 //! The environment trait.
 
 use crate::error::Result;
+use crate::shield::Shield;
 use crate::space::BoxSpace;
 
 /// What happened besides the reward: flags that algorithms ignore and bookkeeping reads.
@@ -95,6 +96,14 @@ pub trait Env {
 
 impl<E: Env + ?Sized> Env for Box<E> {
     fn id(&self) -> &str {
+
+    /// A copy of what this environment uses to stop actions, to keep at evaluation (a DEFENDER
+    /// environment: its filter as it stands): the trainer evaluates the policy with it too
+    /// (crate::evaluation). The copy is the caller's; using it changes nothing here. Plain
+    /// environments and wrappers that stop nothing: `None`.
+    fn shield(&self) -> Option<Box<dyn Shield>> {
+        None
+    }
         (**self).id()
     }
     fn observation_space(&self) -> &BoxSpace {
@@ -119,3 +128,6 @@ impl<E: Env + ?Sized> Env for Box<E> {
         (**self).load_state(dir)
     }
 }
+    fn shield(&self) -> Option<Box<dyn Shield>> {
+        (**self).shield()
+    }

@@ -8,12 +8,14 @@ mod config;
 mod critics;
 mod env;
 mod error;
+mod evaluation;
 mod nets;
 mod off_policy;
 mod replay;
 mod sac;
 pub mod safety;
 mod seed;
+mod shield;
 mod space;
 mod td3;
 mod time_limit;
@@ -26,13 +28,15 @@ pub use config::{BcForm, EntCoef, MAX_BATCH_SIZE, SacConfig, Td3Config, check_ba
 pub use defender_nn::Parallelism;
 pub use env::{Env, Step, StepInfo};
 pub use error::{EnvError, Result, RlError, check_vector};
+pub use evaluation::{EvalRecord, ShieldedEval};
 pub use replay::{Batch, ReplayBuffer, Transition};
 pub use sac::Sac;
 pub use safety::SafetyConfig;
 pub use seed::{SeedPurpose, derive_seed};
+pub use shield::Shield;
 pub use space::BoxSpace;
 pub use td3::Td3;
 pub use time_limit::TimeLimit;
 pub use trainer::{
-    Budget, EpisodeRecord, EvalRecord, HookError, Hooks, NoHooks, Outcome, RunEnd, Trainer, TrainerConfig,
+    Budget, EpisodeRecord, HookError, Hooks, NoHooks, Outcome, RunEnd, Trainer, TrainerConfig,
 };

@@ -71,6 +71,9 @@ impl<E: Env> Env for TimeLimit<E> {
     fn load_state(&mut self, dir: &std::path::Path) -> Result<()> {
         self.inner.load_state(dir)
     }
+    fn shield(&self) -> Option<Box<dyn crate::Shield>> {
+        self.inner.shield()
+    }
 }
 
 #[cfg(test)]

@@ -8,7 +8,8 @@
 //!         a = agent.act(obs)                             # in [-1, 1]
 //!         step = env.step(low + (a + 1) / 2 (high - low))
 //!         agent.observe(obs, a, r, step.obs, terminated, truncated); agent.update()
-//!         every eval_freq steps: evaluate the deterministic policy on eval_env
+//!         every eval_freq steps: evaluate the deterministic policy on eval_env (and, when env
+//!             lends a shield, the same episodes shielded: crate::evaluation)
 //!     record the episode; hooks.on_episode_end; maybe checkpoint; maybe stop
 //! final evaluation (10 episodes)
 //! ```
@@ -25,6 +26,7 @@ use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, resolve, write_atomic, write_json};
 use crate::env::{Env, Step};
 use crate::error::RlError;
+use crate::evaluation::{EvalRecord, Evaluator};
 use crate::replay::Transition;
 use crate::seed::{SeedPurpose, derive_seed};
 use crate::space::BoxSpace;
@@ -173,28 +175,6 @@ impl EpisodeRecord {
             Outcome::Truncated
         }
     }
-}
-
-/// One evaluation of the deterministic policy.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct EvalRecord {
-    /// Training steps when it ran.
-    pub total_steps: u64,
-    /// Mean undiscounted return.
-    pub mean_return: f64,
-    /// Population standard deviation of the returns (numpy's default, as SB3 reports).
-    pub std_return: f64,
-    /// Mean episode length.
-    pub mean_length: f64,
-    /// Mean episode cost (`None` in records written before costs existed).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mean_cost: Option<f64>,
-    /// Episodes run.
-    pub episodes: usize,
-    /// Each episode's return.
-    pub returns: Vec<f64>,
-    /// This is the end-of-training evaluation.
-    pub is_final: bool,
 }
 
 /// The error type hooks return (anything `anyhow::Error` converts into).
@@ -620,47 +600,20 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         self.action_space.unscale(action, out);
     }
 
-    /// Runs `episodes` deterministic episodes on the evaluation env and records them.
+    /// Evaluates the deterministic policy on `episodes` episodes of the evaluation env and records
+    /// it; a training env that lends a shield (DEFENDER's filter) gets the same episodes shielded
+    /// too (crate::evaluation). Only the unfiltered pass moves the evaluation seeds on: the
+    /// shielded one replays its seeds, so runs without a shield evaluate as before.
     fn evaluate(&mut self, episodes: usize, is_final: bool, hooks: &mut dyn Hooks) -> Result<(), RlError> {
-        let act_dim = self.agent.act_dim();
-        let mut action = vec![0.0f32; act_dim];
-        let mut env_action = vec![0.0f64; act_dim];
-        let (mut returns, mut lengths) = (Vec::with_capacity(episodes), Vec::with_capacity(episodes));
-        let mut total_cost = 0.0;
-        for _ in 0..episodes {
-            let seed =
-                derive_seed(self.state.config.seed, SeedPurpose::EvalEpisode, self.state.eval_episodes_run);
-            self.state.eval_episodes_run += 1;
-            let mut obs = self.eval_env.reset(Some(seed))?;
-            let (mut ret, mut len) = (0.0, 0u64);
-            loop {
-                self.agent.act(&obs, true, &mut action)?;
-                self.rescale(&action, &mut env_action);
-                let step = self.eval_env.step(&env_action)?;
-                ret += step.reward;
-                total_cost += step.cost;
-                len += 1;
-                if step.done() {
-                    break;
-                }
-                obs = step.obs;
-            }
-            returns.push(ret);
-            lengths.push(len as f64);
-        }
-        let n = episodes as f64;
-        let mean = returns.iter().sum::<f64>() / n;
-        let std = (returns.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
-        let record = EvalRecord {
-            total_steps: self.state.total_steps,
-            mean_return: mean,
-            std_return: std,
-            mean_length: lengths.iter().sum::<f64>() / n,
-            mean_cost: Some(total_cost / n),
-            episodes,
-            returns,
-            is_final,
-        };
+        let first = self.state.eval_episodes_run;
+        let seeds: Vec<u64> = (first..first + episodes as u64)
+            .map(|k| derive_seed(self.state.config.seed, SeedPurpose::EvalEpisode, k))
+            .collect();
+        self.state.eval_episodes_run += episodes as u64;
+        let shield = self.env.shield();
+        let mut evaluator =
+            Evaluator { agent: &mut self.agent, env: &mut self.eval_env, action_space: &self.action_space };
+        let record = evaluator.evaluate(&seeds, shield, self.state.total_steps, is_final)?;
         hooks.on_evaluation(&record).map_err(hook_err("on_evaluation"))?;
         self.state.evaluations.push(record);
         Ok(())
