@@ -92,10 +92,6 @@ pub trait Env {
         let _ = dir;
         Ok(())
     }
-}
-
-impl<E: Env + ?Sized> Env for Box<E> {
-    fn id(&self) -> &str {
 
     /// A copy of what this environment uses to stop actions, to keep at evaluation (a DEFENDER
     /// environment: its filter as it stands): the trainer evaluates the policy with it too
@@ -104,6 +100,10 @@ impl<E: Env + ?Sized> Env for Box<E> {
     fn shield(&self) -> Option<Box<dyn Shield>> {
         None
     }
+}
+
+impl<E: Env + ?Sized> Env for Box<E> {
+    fn id(&self) -> &str {
         (**self).id()
     }
     fn observation_space(&self) -> &BoxSpace {
@@ -127,7 +127,7 @@ impl<E: Env + ?Sized> Env for Box<E> {
     fn load_state(&mut self, dir: &std::path::Path) -> Result<()> {
         (**self).load_state(dir)
     }
-}
     fn shield(&self) -> Option<Box<dyn Shield>> {
         (**self).shield()
     }
+}

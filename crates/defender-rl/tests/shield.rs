@@ -106,7 +106,8 @@ impl Env for Training {
         self.inner.step(action)
     }
     fn shield(&self) -> Option<Box<dyn Shield>> {
-        self.lend.then(|| Box::new(EveryOther { episodes: 0, t: 0, seen: self.seen.clone() }) as Box<dyn Shield>)
+        self.lend
+            .then(|| Box::new(EveryOther { episodes: 0, t: 0, seen: self.seen.clone() }) as Box<dyn Shield>)
     }
 }
 
@@ -176,7 +177,11 @@ fn the_shielded_pass_replays_the_evaluation_seeds_and_counts_only_executed_steps
         for (k, (p, s)) in plain.iter().zip(kept).enumerate() {
             assert_eq!(s.seed, p.seed, "evaluation {i} episode {k}: the paired seed");
             assert_eq!(s.first_obs, p.first_obs);
-            assert_eq!(shielded.seen[EPISODES * i + k], p.first_obs, "the shield sees the environment's state");
+            assert_eq!(
+                shielded.seen[EPISODES * i + k],
+                p.first_obs,
+                "the shield sees the environment's state"
+            );
             // The shield refuses step STOP_AT of episodes 0 and 2: the environment never runs it,
             // and the episode is the unfiltered one up to there.
             let refused = k % 2 == 0;
