@@ -403,4 +403,10 @@ impl<E: Env> Env for DefenderEnv<E> {
         self.needs_reset = true;
         self.inner.load_state(&dir.join("inner"))
     }
+
+    /// The filter as it stands, copied ([`crate::FilterShield`]): evaluations keep it without
+    /// touching this one, which sees training steps only.
+    fn shield(&self) -> Option<Box<dyn defender_rl::Shield>> {
+        Some(Box::new(crate::shield::FilterShield::new(self.filter.filter().clone())))
+    }
 }
