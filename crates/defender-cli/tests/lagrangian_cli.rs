@@ -117,6 +117,7 @@ fn an_experiment_arm_selects_lagrangian_sac() {
 
 #[test]
 fn pid_lagrangian_trains_with_omnisafes_options_and_the_options_need_a_lagrangian() {
+    // (and DEFENDER's --charge-filtered is refused without a learner of costs, or its room)
     let root = tempfile::tempdir().unwrap();
     let config = config(root.path());
     let out = root.path().join("pid");

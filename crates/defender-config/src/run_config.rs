@@ -172,6 +172,15 @@ impl RunConfig {
         if let Some(td3) = &self.td3 {
             td3.validate().context("[td3]")?;
         }
+        if let Some(d) = &self.defender
+            && d.filtered_cost == defender::FilteredCost::Violation
+            && self.safety.is_none()
+        {
+            bail!(
+                "[defender] filtered_cost = \"violation\" charges the learner a cost, and this run's \
+                 learner ignores costs: add a [safety] section (e.g. --lagrangian or --pid)"
+            );
+        }
         if let Some(safety) = &self.safety {
             // The limit's range depends on the task: RunConfig::check_for_task.
             safety.validate().context("[safety]")?;
@@ -214,6 +223,26 @@ impl RunConfig {
                     )
                 }
                 _ => {}
+            }
+        }
+        if let (Some(d), Some(safety)) = (&self.defender, &self.safety)
+            && d.filtered_cost == defender::FilteredCost::Violation
+        {
+            // A filtered step is charged up to the episode limit plus one (1 on a crash task).
+            let charged = d.episode_cost_limit.or(task_limit).unwrap_or(0.0) + 1.0;
+            let cost_max = match safety {
+                defender_rl::SafetyConfig::Lagrangian(l) => Some(l.cost_max),
+                defender_rl::SafetyConfig::Pid(p) => Some(p.cost_max),
+                _ => None,
+            };
+            if let Some(cost_max) = cost_max
+                && cost_max < charged
+            {
+                bail!(
+                    "[safety] cost_max = {cost_max}: with [defender] filtered_cost = \"violation\" on \
+                     {env} a filtered step can cost the learner up to {charged} (the episode limit \
+                     plus one); set cost_max = {charged} (--cost-max {charged})"
+                );
             }
         }
         if let Some(d) = &self.defender
@@ -326,6 +355,10 @@ pub struct DefenderSection {
     /// tasks) when left out, and `config.toml` records it. Absent on a crash task.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub episode_cost_limit: Option<f64>,
+    /// What a filtered step costs the learner (docs/SPEC.md, section 14): `none` (absent) or
+    /// `violation`, which needs a `[safety]` learner of costs.
+    #[serde(default, skip_serializing_if = "defender::FilteredCost::is_none")]
+    pub filtered_cost: defender::FilteredCost,
     /// The dynamics model (SPEC section 5).
     #[serde(default)]
     pub dynamics: defender::DynamicsConfig,
@@ -426,6 +459,7 @@ impl DefenderSection {
             cost: Default::default(),
             filter: Default::default(),
             episode_cost_limit: None,
+            filtered_cost: Default::default(),
             dynamics: Default::default(),
             selection: None,
         }
@@ -466,6 +500,7 @@ impl DefenderSection {
             cost: self.cost.options(),
             filter: self.filter,
             episode_cost_limit: self.episode_cost_limit,
+            filtered_cost: self.filtered_cost,
             dynamics: self.dynamics.clone(),
         })
     }

@@ -258,7 +258,7 @@ impl MujocoEnv {
             cost: self.task.cost().of_unstable_step(),
             terminated: true,
             truncated: false,
-            info: StepInfo { unstable: true, filtered: false },
+            info: StepInfo { unstable: true, ..StepInfo::default() },
         }
     }
 }

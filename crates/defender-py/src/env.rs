@@ -379,6 +379,7 @@ impl Core {
                         defender::UnsafeRule::Crash => None,
                     },
                 },
+                filtered_cost: defender::FilteredCost::None,
                 dynamics,
             };
             let mut rng = match seed {

@@ -5,7 +5,7 @@ use crate::shield::Shield;
 use crate::space::BoxSpace;
 
 /// What happened besides the reward: flags that algorithms ignore and bookkeeping reads.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepInfo {
     /// The simulator became unstable (NaN/Inf accelerations) and the episode was ended; the
     /// step is marked `terminated` so that the episode stops, and a warning was logged.
@@ -13,6 +13,10 @@ pub struct StepInfo {
     /// A wrapper vetoed the action and did not send it to the environment (DEFENDER); the
     /// observation is a prediction and the step is `terminated`. Plain environments leave it false.
     pub filtered: bool,
+    /// A cost the learner is charged that the task did not incur (DEFENDER's filtered step under
+    /// `filtered_cost = "violation"`, docs/SPEC.md section 14): the trainer adds it to the cost
+    /// of the transition the agent learns from, never to the episode's recorded cost. 0 otherwise.
+    pub charged_cost: f64,
 }
 
 /// The result of one environment step.

@@ -518,11 +518,13 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 self.state.total_steps += 1;
                 check_finite(&step, self.state.total_steps, episode)?;
                 // The agent stores the normalised action; `terminated` and `truncated` stay apart.
+                // It learns from the task's cost plus any cost a wrapper charged it (the episode's
+                // recorded cost below is the task's alone).
                 let transition = Transition {
                     obs: &obs,
                     action: &action,
                     reward: step.reward,
-                    cost: step.cost,
+                    cost: step.cost + step.info.charged_cost,
                     next_obs: &step.obs,
                     terminated: step.terminated,
                     truncated: step.truncated,

@@ -39,6 +39,7 @@ impl Env for Scripted {
             (1, 5) => {
                 step.terminated = true;
                 step.info.filtered = true;
+                step.info.charged_cost = 3.0;
                 step.reward = -100.0;
             }
             (2, 7) => step.terminated = true,
@@ -87,8 +88,33 @@ fn records_outcomes_lengths_and_returns() {
     }
     assert_eq!(trainer.total_steps(), 424);
     assert!(trainer.episodes()[0].episode_return < -100.0);
+    // A cost charged to the learner is not the task's: the recorded episode costs are 0.
+    assert!(trainer.episodes().iter().all(|e| e.cost() == 0.0));
     // The evaluation env is the plain task: full 200-step episodes.
     assert_eq!((eval.episodes, eval.mean_length, eval.is_final), (1, 200.0, true));
+}
+
+/// Sums the costs of the transitions the agent was given.
+#[derive(Default)]
+struct LearnedCost(f64);
+
+impl defender_rl::Hooks for LearnedCost {
+    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64]) {
+        self.0 += t.cost;
+    }
+}
+
+#[test]
+fn a_charged_cost_reaches_the_agent_but_not_the_episode_records() {
+    let env = Scripted { inner: Pendulum::new(), t: 0, episodes: 0 };
+    let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Episodes(6)) };
+    let mut trainer =
+        Trainer::new(small_sac().build(3, 1, 0).unwrap(), env, Pendulum::new(), config).unwrap();
+    let mut learned = LearnedCost::default();
+    trainer.run(&mut learned).unwrap();
+    // Two filtered episodes, each charged 3 at its filtered step.
+    assert_eq!(learned.0, 6.0);
+    assert_eq!(trainer.episodes().iter().map(|e| e.cost()).sum::<f64>(), 0.0);
 }
 
 #[test]

@@ -52,9 +52,34 @@ pub struct DefenderConfig {
     /// (docs/SPEC.md, section 13; Safety-Gymnasium's 25). `None`: unsafe is a crash.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub episode_cost_limit: Option<f64>,
+    /// What a filtered step costs the learner (docs/SPEC.md, section 14): `none` (SPEC sections
+    /// 12-13: nothing reached the environment) or `violation` (the violation it prevented).
+    #[serde(default, skip_serializing_if = "FilteredCost::is_none")]
+    pub filtered_cost: FilteredCost,
     /// The dynamics model.
     #[serde(default)]
     pub dynamics: DynamicsConfig,
+}
+
+/// What a filtered step costs the learner. The recorded episode cost never includes it: it is
+/// [`StepInfo::charged_cost`], not [`Step::cost`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FilteredCost {
+    /// Nothing (SPEC sections 12-13).
+    #[default]
+    None,
+    /// The violation the filter prevented: the episode's cost so far is topped up to one unit
+    /// above the episode limit `L` (0 on a crash task), `L + 1 - C`, so that a learner of the
+    /// costs sees a filtered episode as one that broke the limit (a crash costs 1).
+    Violation,
+}
+
+impl FilteredCost {
+    /// Whether it is the SPEC's `none` (left out of a saved configuration).
+    pub fn is_none(&self) -> bool {
+        *self == Self::None
+    }
 }
 
 fn default_strategy() -> Strategy {
@@ -74,6 +99,7 @@ impl Default for DefenderConfig {
             cost: CostOptions::default(),
             filter: FilterOptions::default(),
             episode_cost_limit: None,
+            filtered_cost: FilteredCost::None,
             dynamics: DynamicsConfig::default(),
         }
     }
@@ -123,6 +149,8 @@ pub struct DefenderEnv<E> {
     last_decision: Option<Decision>,
     last_outcome: Option<Outcome>,
     stats: DefenderStats,
+    /// The task's cost of the episode under way (for [`FilteredCost::Violation`]).
+    episode_cost: f64,
 }
 
 impl<E: Env> DefenderEnv<E> {
@@ -178,6 +206,7 @@ impl<E: Env> DefenderEnv<E> {
             last_decision: None,
             last_outcome: None,
             stats: DefenderStats::default(),
+            episode_cost: 0.0,
         })
     }
 
@@ -318,6 +347,7 @@ impl<E: Env> Env for DefenderEnv<E> {
         self.filter.begin(&obs);
         self.needs_reset = false;
         self.episode_steps = 0;
+        self.episode_cost = 0.0;
         self.last_decision = None;
         Ok(obs)
     }
@@ -340,6 +370,12 @@ impl<E: Env> Env for DefenderEnv<E> {
                 .map_err(env_error)?;
             self.stats.filtered_steps += 1;
             self.end_episode(Outcome::Filtered).map_err(env_error)?;
+            let charged_cost = match self.config.filtered_cost {
+                FilteredCost::None => 0.0,
+                FilteredCost::Violation => {
+                    (self.config.episode_cost_limit.unwrap_or(0.0) + 1.0 - self.episode_cost).max(0.0)
+                }
+            };
             return Ok(Step {
                 obs: self.pred.clone(),
                 reward: self.r_task,
@@ -347,11 +383,12 @@ impl<E: Env> Env for DefenderEnv<E> {
                 cost: 0.0,
                 terminated: true,
                 truncated: false,
-                info: StepInfo { filtered: true, ..StepInfo::default() },
+                info: StepInfo { filtered: true, charged_cost, ..StepInfo::default() },
             });
         }
         let step = self.inner.step(action)?;
         self.stats.real_steps += 1;
+        self.episode_cost += step.cost;
         // The dynamics model learns from real transitions only; an unstable step's observation
         // is not a transition of the task.
         if !step.info.unstable && step.obs.iter().all(|v| v.is_finite()) && step.obs.len() == self.obs.len() {

@@ -36,7 +36,7 @@ pub use adaptive_filter::AdaptiveFilter;
 pub use atomic::write_atomic;
 pub use cost::{CostOptions, DtwKind, Elements, Metric, Scaling, Ties};
 pub use cost_stream::CostStream;
-pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats, MAX_ABS_R_TASK};
+pub use defender_env::{DefenderConfig, DefenderEnv, DefenderStats, FilteredCost, MAX_ABS_R_TASK};
 pub use demonstrations::Demonstrations;
 pub use dynamics::{DynamicsConfig, DynamicsModel, PredictionError};
 pub use dynamics_worker::DynamicsHandle;

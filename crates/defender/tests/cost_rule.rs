@@ -97,3 +97,69 @@ fn demonstrations_of_another_rule_are_refused_naming_the_setting() {
     let err = DefenderEnv::new(Line::new(), &cost_labelled(), with_limit, &mut rng).unwrap_err().to_string();
     assert!(err.contains("episode_cost_limit = 0"), "{err}");
 }
+
+/// The line where every executed step costs `per_step` (a velocity task in miniature).
+struct CostlyLine(Line, f64);
+
+impl defender_rl::Env for CostlyLine {
+    fn id(&self) -> &str {
+        self.0.id()
+    }
+    fn observation_space(&self) -> &defender_rl::BoxSpace {
+        self.0.observation_space()
+    }
+    fn action_space(&self) -> &defender_rl::BoxSpace {
+        self.0.action_space()
+    }
+    fn reset(&mut self, seed: Option<u64>) -> defender_rl::Result<Vec<f64>> {
+        self.0.reset(seed)
+    }
+    fn step(&mut self, action: &[f64]) -> defender_rl::Result<defender_rl::Step> {
+        let mut s = self.0.step(action)?;
+        s.cost = self.1;
+        s.terminated = false;
+        Ok(s)
+    }
+}
+
+/// Runs right until the filter stops the episode; the executed steps' summed cost and the
+/// filtered step.
+fn run_until_filtered(env: &mut impl defender_rl::Env) -> (f64, defender_rl::Step) {
+    env.reset(None).unwrap();
+    let mut cost = 0.0;
+    for _ in 0..20 {
+        let s = env.step(&[1.0]).unwrap();
+        if s.info.filtered {
+            return (cost, s);
+        }
+        cost += s.cost;
+    }
+    panic!("the run to the right was never filtered");
+}
+
+#[test]
+fn a_filtered_step_charges_the_learner_the_violation_it_prevented_and_records_nothing() {
+    use defender::{DefenderConfig, FilteredCost};
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let charge = DefenderConfig { filtered_cost: FilteredCost::Violation, ..config("MinBothW5/MinBothW5") };
+    // A crash task: the violation prevented is a crash, 1.
+    let mut env = DefenderEnv::new(Line::new(), &line_demos(), charge.clone(), &mut rng).unwrap();
+    let (_, s) = run_until_filtered(&mut env);
+    assert_eq!((s.cost, s.info.charged_cost), (0.0, 1.0), "nothing reached the task; the learner pays 1");
+    // SPEC's filtered step charges nothing.
+    let mut env =
+        DefenderEnv::new(Line::new(), &line_demos(), config("MinBothW5/MinBothW5"), &mut rng).unwrap();
+    let (_, s) = run_until_filtered(&mut env);
+    assert_eq!((s.cost, s.info.charged_cost), (0.0, 0.0));
+    // A cost task with limit 2, each executed step costing 0.5: topped up to 2 + 1.
+    let cost_task = DefenderConfig { episode_cost_limit: Some(2.0), ..charge };
+    let mut env =
+        DefenderEnv::new(CostlyLine(Line::new(), 0.5), &cost_labelled(), cost_task, &mut rng).unwrap();
+    let (spent, s) = run_until_filtered(&mut env);
+    assert!(spent > 0.0 && spent < 3.0, "{spent}");
+    assert_eq!(s.cost, 0.0);
+    assert!((spent + s.info.charged_cost - 3.0).abs() < 1e-12, "{spent} + {}", s.info.charged_cost);
+    // The next episode starts from nothing spent.
+    let (spent2, s2) = run_until_filtered(&mut env);
+    assert_eq!((spent2, s2.info.charged_cost), (spent, s.info.charged_cost));
+}

@@ -52,6 +52,10 @@ pub struct SafetyFlags {
     /// / std of the costs so far, clipped to +-5 ([safety] cost_normalize = true).
     #[arg(long, help_heading = "Baselines")]
     pub cost_normalize: bool,
+    /// The Lagrangian agents' largest cost of one step [default: 1] ([safety] cost_max; with
+    /// --charge-filtered a filtered step costs the learner up to the episode limit plus one).
+    #[arg(long, value_name = "C", help_heading = "Baselines")]
+    pub cost_max: Option<f64>,
     /// Clip the gradient norms of the actor, the reward critics and the cost critic at N, as
     /// OmniSafe's max_grad_norm (40) ([safety] max_grad_norm = N).
     #[arg(long, value_name = "N", help_heading = "Baselines")]
@@ -110,18 +114,23 @@ impl SafetyFlags {
                 ..base
             }));
         }
-        if self.cost_normalize || self.max_grad_norm.is_some() {
-            let (normalize, clip) = match &mut config.safety {
-                Some(SafetyConfig::Lagrangian(l)) => (&mut l.cost_normalize, &mut l.max_grad_norm),
-                Some(SafetyConfig::Pid(p)) => (&mut p.cost_normalize, &mut p.max_grad_norm),
+        if self.cost_normalize || self.max_grad_norm.is_some() || self.cost_max.is_some() {
+            let (normalize, clip, cost_max) = match &mut config.safety {
+                Some(SafetyConfig::Lagrangian(l)) => {
+                    (&mut l.cost_normalize, &mut l.max_grad_norm, &mut l.cost_max)
+                }
+                Some(SafetyConfig::Pid(p)) => (&mut p.cost_normalize, &mut p.max_grad_norm, &mut p.cost_max),
                 _ => anyhow::bail!(
-                    "--cost-normalize and --max-grad-norm are options of the Lagrangian agents: give \
-                     --lagrangian or --pid (or a configuration with [safety] method = \"lagrangian\" or \"pid\")"
+                    "--cost-normalize, --max-grad-norm and --cost-max are options of the Lagrangian agents: \
+                     give --lagrangian or --pid (or a configuration with [safety] method = \"lagrangian\" or \"pid\")"
                 ),
             };
             *normalize |= self.cost_normalize;
             if self.max_grad_norm.is_some() {
                 *clip = self.max_grad_norm;
+            }
+            if let Some(c) = self.cost_max {
+                *cost_max = c;
             }
         }
         Ok(())

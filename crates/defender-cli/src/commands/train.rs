@@ -156,6 +156,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         || args.num_demos.is_some()
         || args.mode.is_some()
         || args.r_task.is_some()
+        || args.charge_filtered
         || args.margin.is_some()
         || args.filter_budget.is_some()
         || args.own_episodes.is_some()
@@ -163,7 +164,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         || args.dynamics_spec_schedule;
     if wants_defender && config.defender.is_none() {
         let strategy = args.strategy.context(
-            "--demos, --num-demos, --mode, --r-task, --margin, --filter-budget, --own-episodes, \
+            "--demos, --num-demos, --mode, --r-task, --charge-filtered, --margin, --filter-budget, --own-episodes, \
              --dynamics-thread and --dynamics-spec-schedule configure DEFENDER: give --strategy \
              SAFE/UNSAFE too (or, for --demos, --learn-from-demos: the demonstrations without the filter)",
         )?;
@@ -214,6 +215,9 @@ fn apply_defender_flags(section: &mut DefenderSection, args: &TrainArgs) {
     }
     if args.r_task.is_some() {
         section.r_task = args.r_task;
+    }
+    if args.charge_filtered {
+        section.filtered_cost = defender::FilteredCost::Violation;
     }
     if args.num_demos.is_some() {
         section.num_demos = args.num_demos;

@@ -46,6 +46,12 @@ pub struct TrainArgs {
     /// The reward of a filtered step (default: the lowest per-step reward of the demonstrations).
     #[arg(long, allow_negative_numbers = true)]
     pub r_task: Option<f64>,
+    /// Charge the learner, at a filtered step, the violation the filter prevented: the episode's
+    /// cost topped up to the episode limit plus one (1 on a crash task); the recorded costs stay
+    /// the task's. Needs a learner of costs (--lagrangian, --pid) ([defender] filtered_cost =
+    /// "violation"; docs/SPEC.md section 14).
+    #[arg(long)]
+    pub charge_filtered: bool,
     /// Filter only when the trajectory is clearly closer to the unsafe group: `Unsafe <= (1 - M) *
     /// Safe`, M in [0, 1) ([defender.filter] margin; 0 is SPEC's rule).
     #[arg(long, value_name = "M")]

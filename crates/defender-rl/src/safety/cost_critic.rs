@@ -88,7 +88,8 @@ impl CostCritic {
         let adam = AdamConfig { lr: config.learning_rate as f32, ..AdamConfig::default() };
         let b = config.batch_size;
         let output = if range.per_step.is_some() { Activation::Sigmoid } else { Activation::Identity };
-        let critic = Critic::with_output(obs_dim + act_dim, &config.net_arch, adam, b, &mut init, output)?;
+        let mut critic =
+            Critic::with_output(obs_dim + act_dim, &config.net_arch, adam, b, &mut init, output)?;
         let horizon = 1.0 / (1.0 - config.gamma);
         let (lo, scale) = match range.per_step {
             Some((c_lo, c_hi)) => {
@@ -96,6 +97,17 @@ impl CostCritic {
             }
             None => (0.0, 1.0),
         };
+        if range.per_step.is_some() {
+            // The sigmoid would start every Q_c mid-range (50 on a crash task, whose true Q_c is
+            // at most 1); start it near a cost of 0, as the linear critic starts near 0: the
+            // output bias at the logit of 0's place in the range, kept off the sigmoid's flat
+            // ends (at least 1e-3 of the range up). It is the network's last parameter.
+            let p0 = f64::from((0.0f32.clamp(lo, lo + scale) - lo) / scale).clamp(1e-3, 0.5);
+            if let Some(bias) = critic.net.params_mut().last_mut() {
+                *bias = (p0 / (1.0 - p0)).ln() as f32;
+            }
+            critic.target.copy_params_from(&critic.net);
+        }
         Ok(Self {
             lo,
             scale,
@@ -255,6 +267,17 @@ mod tests {
                 assert!((c.y[i] - expected).abs() < 1e-6, "row {i}: {} against {expected}", c.y[i]);
             }
         }
+    }
+
+    #[test]
+    fn a_fresh_bounded_critic_starts_near_a_cost_of_zero() {
+        let (_, critic_in, _) = batch();
+        // Costs in [0, 1]: Q_c in [0, 100], starting about 0.1 (not 50, mid-range).
+        let q = critic_with(BOUNDED).q_values(&critic_in);
+        assert!(q.iter().all(|&v| v > 0.0 && v < 0.5), "{q:?}");
+        // Normalised costs in [-5, 5]: Q_c in [-500, 500], starting about 0.
+        let q = critic_with(Some((-5.0, 5.0))).q_values(&critic_in);
+        assert!(q.iter().all(|&v| v.abs() < 150.0), "{q:?}");
     }
 
     #[test]
