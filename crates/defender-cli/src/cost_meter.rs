@@ -102,4 +102,7 @@ impl<E: Env> Env for CostMeter<E> {
     fn load_state(&mut self, dir: &Path) -> defender_rl::Result<()> {
         self.inner.load_state(dir)
     }
+    fn shield(&self) -> Option<Box<dyn defender_rl::Shield>> {
+        self.inner.shield()
+    }
 }

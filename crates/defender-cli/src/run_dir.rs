@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use defender_report::{
-    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, METRICS_FILE,
-    METRICS_HEADER, SUMMARY_FILE, Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
+    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, EvalShield,
+    METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
 };
 use defender_rl::{EpisodeRecord, EvalRecord};
 use serde::Serialize;
@@ -29,7 +29,7 @@ fn metrics_row(r: &EpisodeRecord) -> String {
     .to_csv()
 }
 
-/// One `eval.csv` row.
+/// One `eval.csv` row (the shielded columns empty for a run without a filter).
 fn eval_row(r: &EvalRecord) -> String {
     EvalRow {
         total_steps: r.total_steps,
@@ -38,6 +38,11 @@ fn eval_row(r: &EvalRecord) -> String {
         mean_length: r.mean_length,
         episodes: r.episodes as u64,
         mean_cost: r.mean_cost,
+        shield: r.shield.as_ref().map(|s| EvalShield {
+            mean_return: s.mean_return,
+            mean_cost: s.mean_cost,
+            filtered: s.filtered,
+        }),
     }
     .to_csv()
 }

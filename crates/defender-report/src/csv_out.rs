@@ -11,6 +11,9 @@ use crate::table::Table;
 /// Columns added after the first release go at the end, so that scripts reading by position
 /// keep working; an empty field is a value the row does not have (the cost columns, from
 /// `episode_cost_limit` on, are empty for a task without an episode cost limit: the crash tasks).
+/// The shielded evaluation's columns (`shield_*`) are empty for a row without one (a bare row);
+/// its cost, `shield_eval_cost_last10_*`, is given on the tasks with a cost limit, as the
+/// evaluation cost is.
 pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
 n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
@@ -22,7 +25,10 @@ crashes_per_1k_env_steps_mean,crashes_per_1k_env_steps_std,crashes_per_1k_env_st
 episode_cost_limit,cost_rate_mean,cost_rate_std,cost_rate_ci_lo,cost_rate_ci_hi,\
 eval_cost_last10_mean,eval_cost_last10_std,eval_cost_last10_ci_lo,eval_cost_last10_ci_hi,\
 over_limit_mean,over_limit_std,over_limit_ci_lo,over_limit_ci_hi,\
-over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi";
+over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi,\
+shield_eval_last10_mean,shield_eval_last10_std,shield_eval_last10_ci_lo,shield_eval_last10_ci_hi,\
+shield_ended_pct_mean,shield_ended_pct_std,shield_ended_pct_ci_lo,shield_ended_pct_ci_hi,\
+shield_eval_cost_last10_mean,shield_eval_cost_last10_std,shield_eval_cost_last10_ci_lo,shield_eval_cost_last10_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -90,6 +96,15 @@ pub(crate) fn csv(table: &Table) -> String {
             costs.and_then(|c| c.eval_cost.as_ref()),
             costs.map(|c| &c.over_limit),
             costs.map(|c| &c.over_limit_pct),
+        ] {
+            fields.extend(mean_std(e));
+            fields.extend(interval(e));
+        }
+        let shield = row.shield.as_ref();
+        for e in [
+            shield.map(|s| &s.eval),
+            shield.map(|s| &s.ended_pct),
+            shield.filter(|_| costs.is_some()).map(|s| &s.cost),
         ] {
             fields.extend(mean_std(e));
             fields.extend(interval(e));

@@ -36,9 +36,18 @@ const PER_TASK: usize = 5;
 /// the limit (counted, and in %).
 const PER_COST_TASK: usize = 4;
 
+/// Columns a task whose rows have shielded evaluations adds: Shielded eval (last-10) and
+/// % Shield-ended, and with a cost limit Shielded cost (last-10).
+const PER_SHIELD_TASK: usize = 2;
+
 /// The episode cost limit of the rows of task `env` at `budget`, `None` for a crash task.
 fn limit_of(rows: &[&Row], env: &str, budget: Budget) -> Option<f64> {
     rows.iter().filter(|r| r.env == env && r.budget == budget).find_map(|r| r.costs.map(|c| c.limit))
+}
+
+/// Whether a row of task `env` at `budget` has shielded evaluations (a DEFENDER run).
+fn shielded(rows: &[&Row], env: &str, budget: Budget) -> bool {
+    rows.iter().any(|r| r.env == env && r.budget == budget && r.shield.is_some())
 }
 
 /// The LaTeX report of `table`.
@@ -62,8 +71,15 @@ pub(crate) fn latex(table: &Table) -> String {
         };
         // A task with a cost limit has the cost columns too (before % Time).
         let limits: Vec<Option<f64>> = columns.iter().map(|(e, b)| limit_of(&rows, e, *b)).collect();
-        let widths: Vec<usize> =
-            limits.iter().map(|l| PER_TASK + if l.is_some() { PER_COST_TASK } else { 0 }).collect();
+        let shields: Vec<bool> = columns.iter().map(|(e, b)| shielded(&rows, e, *b)).collect();
+        let widths: Vec<usize> = limits
+            .iter()
+            .zip(&shields)
+            .map(|(l, &sh)| {
+                let cost = if l.is_some() { PER_COST_TASK + usize::from(sh) } else { 0 };
+                PER_TASK + if sh { PER_SHIELD_TASK } else { 0 } + cost
+            })
+            .collect();
         let cost_caption = if limits.iter().any(Option::is_some) {
             " Cost rate: total training cost / environment steps of training (filtered steps not \
              counted); Eval cost (last-10): mean evaluation cost over the last 10 evaluations; \
@@ -72,12 +88,20 @@ pub(crate) fn latex(table: &Table) -> String {
         } else {
             ""
         };
+        let shield_caption = if shields.iter().any(|&s| s) {
+            " Shielded: each evaluation's episodes again (the same reset seeds) with the run's filter kept, \
+             an episode stopping at the first step the filter refuses (its return and cost those of the \
+             executed steps), over the last 10 evaluations; \\% Shield-ended: the share of those \
+             episodes the filter ended."
+        } else {
+            ""
+        };
         let _ = write!(
             out,
             "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
              (final eval): mean return of the final evaluation; Best episode: the best training-episode \
              return of a run (the paper's Acc Reward); \\% Crash: crashed / all training episodes; Crashes: crashed training \
-             episodes over the run; mean $\\pm$ std over seeds.{cost_caption}}}\n\
+             episodes over the run; mean $\\pm$ std over seeds.{cost_caption}{shield_caption}}}\n\
              \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
             tex_escape(mode_title(mode)),
             "l".repeat(labels),
@@ -94,12 +118,17 @@ pub(crate) fn latex(table: &Table) -> String {
             first += width;
         }
         out.push_str(if demos { "\nSafe & Unsafe & Demos" } else { "\nSafe & Unsafe" });
-        for limit in &limits {
-            out.push_str(" & Acc Reward (final eval) & Best episode & \\% Crash & Crashes");
+        for (limit, &shield) in limits.iter().zip(&shields) {
+            out.push_str(" & Acc Reward (final eval) & Best episode");
+            if shield {
+                out.push_str(" & Shielded eval (last-10) & \\% Shield-ended");
+            }
+            out.push_str(" & \\% Crash & Crashes");
             if let Some(limit) = limit {
+                let shielded_cost = if shield { " & Shielded cost (last-10)" } else { "" };
                 let _ = write!(
                     out,
-                    " & Cost rate & Eval cost (last-10) & Cost $>$ {limit} & \\% cost $>$ {limit}"
+                    " & Cost rate & Eval cost (last-10){shielded_cost} & Cost $>$ {limit} & \\% cost $>$ {limit}"
                 );
             }
             out.push_str(" & \\% Time");
@@ -132,7 +161,9 @@ pub(crate) fn latex(table: &Table) -> String {
                         }
                     }
                 }
-                for (((env, budget), limit), width) in columns.iter().zip(&limits).zip(&widths) {
+                for ((((env, budget), limit), &shield), width) in
+                    columns.iter().zip(&limits).zip(&shields).zip(&widths)
+                {
                     let cell = rows.iter().find(|r| {
                         r.algo == algo && r.env == *env && r.budget == *budget && r.filter.as_ref() == filter
                     });
@@ -140,14 +171,27 @@ pub(crate) fn latex(table: &Table) -> String {
                         Some(r) => {
                             let _ = write!(
                                 out,
-                                " & {} & {} & {} & {}",
+                                " & {} & {}",
                                 pm(&r.acc_reward.stat, 0, "$\\pm$"),
                                 r.best_episode.map_or_else(|| "-".into(), |b| pm(&b.stat, 0, "$\\pm$")),
+                            );
+                            if shield {
+                                let s = r.shield.as_ref();
+                                let _ = write!(
+                                    out,
+                                    " & {} & {}",
+                                    estimate_cell(s.map(|s| &s.eval), 0, 1),
+                                    estimate_cell(s.map(|s| &s.ended_pct), 1, 1)
+                                );
+                            }
+                            let _ = write!(
+                                out,
+                                " & {} & {}",
                                 pm(&r.crash_pct.stat, 0, "$\\pm$"),
                                 pm(&r.crashes.stat, 0, "$\\pm$"),
                             );
                             if limit.is_some() {
-                                out.push_str(&cost_cells(r));
+                                out.push_str(&cost_cells(r, shield));
                             }
                             let _ = write!(out, " & {}", time(r));
                         }
@@ -169,20 +213,28 @@ pub(crate) fn latex(table: &Table) -> String {
     out
 }
 
-/// The cost cells of a row of a task with a cost limit, each starting with ` & `; `-` for a
-/// value the row does not have.
-fn cost_cells(row: &Row) -> String {
+/// A cell: mean $\pm$ std, the mean to `decimals` and the std to `std_decimals`; `-` for a value
+/// the row does not have.
+fn estimate_cell(e: Option<&Estimate>, decimals: usize, std_decimals: usize) -> String {
+    e.map_or_else(|| "-".to_string(), |e| pm_to(&e.stat, decimals, std_decimals, "$\\pm$"))
+}
+
+/// The cost cells of a row of a task with a cost limit, each starting with ` & ` (with the
+/// shielded evaluation's cost after the evaluation cost, when the task's table has it).
+fn cost_cells(row: &Row, shielded: bool) -> String {
     // The cost rate (~0.05) keeps its std to the mean's three decimals ([`pm_to`]).
-    let cell = |e: Option<&Estimate>, decimals: usize, std_decimals: usize| {
-        e.map_or_else(|| "-".to_string(), |e| pm_to(&e.stat, decimals, std_decimals, "$\\pm$"))
-    };
     let costs = row.costs.as_ref();
+    let shield = if shielded {
+        format!(" & {}", estimate_cell(row.shield.as_ref().map(|s| &s.cost), 1, 1))
+    } else {
+        String::new()
+    };
     format!(
-        " & {} & {} & {} & {}",
-        cell(costs.map(|c| &c.cost_rate), 3, 3),
-        cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
-        cell(costs.map(|c| &c.over_limit), 0, 1),
-        cell(costs.map(|c| &c.over_limit_pct), 1, 1)
+        " & {} & {}{shield} & {} & {}",
+        estimate_cell(costs.map(|c| &c.cost_rate), 3, 3),
+        estimate_cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
+        estimate_cell(costs.map(|c| &c.over_limit), 0, 1),
+        estimate_cell(costs.map(|c| &c.over_limit_pct), 1, 1)
     )
 }
 

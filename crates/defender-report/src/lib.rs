@@ -9,6 +9,7 @@ mod csv_out;
 mod curves;
 mod discover;
 mod error;
+mod eval_csv;
 mod figure;
 mod io;
 mod label;
@@ -19,6 +20,7 @@ mod plot;
 mod render;
 mod run;
 mod run_violations;
+mod shield;
 mod stats;
 mod status;
 mod table;
@@ -39,9 +41,10 @@ pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
 pub use render::{Format, render};
 pub use run::{
     CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow,
-    EvalRow, METRICS_FILE, METRICS_HEADER, OutcomeCounts, Run, RunSettings, SUMMARY_FILE, StrategySelection,
-    Summary, UPDATES_FILE, UPDATES_HEADER,
+    EvalRow, EvalShield, METRICS_FILE, METRICS_HEADER, OutcomeCounts, Run, RunSettings, SUMMARY_FILE,
+    StrategySelection, Summary, UPDATES_FILE, UPDATES_HEADER,
 };
+pub use shield::ShieldColumns;
 pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};
 pub use status::{SkipKind, SkippedRun, lock_holder};
 pub use table::{Row, Table, TableOptions};

@@ -43,6 +43,17 @@ filter ends join its denominator, so it can fall while the count rises. Each ove
 columns above.
 ";
 
+/// What the shielded columns mean, printed under the legend when a table has them.
+const SHIELD_LEGEND: &str = "
+Shielded columns (DEFENDER runs): each evaluation runs its episodes again, from the same reset \
+seeds, with the run's filter as it stood kept as a shield (deployed with the policy): an episode \
+stops at the first step the filter refuses, that action not executed, and its return, cost and \
+length are those of the executed steps. Shielded eval (last-10): their mean return, averaged over \
+the run's last 10 evaluations, as Last-10 eval is without the filter. % Shield-ended: the share \
+of those episodes that the filter ended, x 100, averaged the same way. Shielded cost (last-10) \
+(tasks with a cost limit): their mean cost, as Eval cost (last-10). - for a row without a filter.
+";
+
 /// The Markdown report of `table`.
 pub(crate) fn markdown(table: &Table) -> String {
     let demos = table.varies_num_demos();
@@ -58,32 +69,30 @@ pub(crate) fn markdown(table: &Table) -> String {
                 header.push("Demos");
             }
             let labels = header.len();
-            header.extend([
-                "Acc Reward (final eval)",
-                "Best episode (paper's Acc Reward)",
-                "Last-10 eval",
-                "% Crash",
-                "Crashes",
-                "Crashes / 1k env steps",
-                "Standing %",
-                "% Time",
-                "Seeds",
-            ]);
+            let rows = || table.rows_for(mode).filter(|r| r.env == env && r.budget == budget);
             // A task with a cost limit gets the cost columns after the crash counts; the tables
             // of the crash tasks keep theirs.
-            let limit = table
-                .rows_for(mode)
-                .filter(|r| r.env == env && r.budget == budget)
-                .find_map(|r| r.costs.map(|c| c.limit));
+            let limit = rows().find_map(|r| r.costs.map(|c| c.limit));
+            // The evaluations with the filter kept sit beside the unfiltered ones, when a row
+            // (a DEFENDER run) has them.
+            let shielded = rows().any(|r| r.shield.is_some());
             let over = limit.map(|l| format!("Episodes cost > {l}")).unwrap_or_default();
             let over_pct = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
-            if limit.is_some() {
-                let at = header.len() - 3;
-                let cost = ["Cost rate", "Eval cost (last-10)", over.as_str(), over_pct.as_str()];
-                header.splice(at..at, cost);
+            header.extend(["Acc Reward (final eval)", "Best episode (paper's Acc Reward)", "Last-10 eval"]);
+            if shielded {
+                header.extend(["Shielded eval (last-10)", "% Shield-ended"]);
             }
+            header.extend(["% Crash", "Crashes", "Crashes / 1k env steps"]);
+            if limit.is_some() {
+                header.extend(["Cost rate", "Eval cost (last-10)"]);
+                if shielded {
+                    header.push("Shielded cost (last-10)");
+                }
+                header.extend([over.as_str(), over_pct.as_str()]);
+            }
+            header.extend(["Standing %", "% Time", "Seeds"]);
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
-            for row in table.rows_for(mode).filter(|r| r.env == env && r.budget == budget) {
+            for row in rows() {
                 let (safe, unsafe_) = row
                     .filter
                     .as_ref()
@@ -96,6 +105,15 @@ pub(crate) fn markdown(table: &Table) -> String {
                     pm_ci(&row.acc_reward, 0),
                     pm_ci_or_dash(row.best_episode.as_ref(), 0),
                     pm_ci(&row.last_evaluations, 0),
+                ]);
+                let shield = row.shield.as_ref();
+                if shielded {
+                    line.extend([
+                        pm_ci_or_dash(shield.map(|s| &s.eval), 0),
+                        pm_ci_or_dash(shield.map(|s| &s.ended_pct), 1),
+                    ]);
+                }
+                line.extend([
                     pm_ci(&row.crash_pct, 1),
                     pm_ci(&row.crashes, 0),
                     pm_ci(&row.crashes_per_1k, 2),
@@ -105,6 +123,11 @@ pub(crate) fn markdown(table: &Table) -> String {
                     line.extend([
                         costs.map_or_else(|| "-".into(), |c| pm_ci_to(&c.cost_rate, 3, 3)),
                         pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
+                    ]);
+                    if shielded {
+                        line.push(pm_ci_or_dash(shield.map(|s| &s.cost), 1));
+                    }
+                    line.extend([
                         pm_ci_or_dash(costs.map(|c| &c.over_limit), 0),
                         pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
                     ]);
@@ -120,6 +143,9 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out.push_str(LEGEND);
+    if table.rows.iter().any(|r| r.shield.is_some()) {
+        out.push_str(SHIELD_LEGEND);
+    }
     if table.rows.iter().any(|r| r.costs.is_some()) {
         out.push_str(COST_LEGEND);
     }

@@ -73,7 +73,15 @@ mod tests {
     use super::*;
 
     fn eval(mean_return: f64, mean_length: f64) -> EvalRow {
-        EvalRow { total_steps: 0, mean_return, std_return: 0.0, mean_length, episodes: 10, mean_cost: None }
+        EvalRow {
+            total_steps: 0,
+            mean_return,
+            std_return: 0.0,
+            mean_length,
+            episodes: 10,
+            mean_cost: None,
+            shield: None,
+        }
     }
 
     #[test]

@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::csv::CsvFile;
 use crate::error::{ReportError, Result};
+use crate::eval_csv::parse_eval;
+pub use crate::eval_csv::{EVAL_HEADER, EvalRow, EvalShield};
 pub use crate::label::algo_display;
 pub(crate) use crate::label::{RawAgent, algo_label, label_parts};
 
@@ -23,8 +25,6 @@ pub const SUMMARY_FILE: &str = "summary.json";
 
 /// The header of `metrics.csv`.
 pub const METRICS_HEADER: &str = "episode,total_steps,return,length,outcome,wall_seconds,cost";
-/// The header of `eval.csv`.
-pub const EVAL_HEADER: &str = "total_steps,mean_return,std_return,mean_length,episodes,mean_cost";
 /// The learner's statistics every 1000 steps (written by `defender train`, not read by the
 /// report).
 pub const UPDATES_FILE: &str = "updates.csv";
@@ -286,38 +286,6 @@ impl EpisodeRow {
             self.outcome.as_str(),
             self.wall_seconds,
             self.cost
-        )
-    }
-}
-
-/// One row of `eval.csv`: an evaluation of the deterministic policy.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EvalRow {
-    /// Environment steps of training when it was made.
-    pub total_steps: u64,
-    /// Mean undiscounted return over the evaluation episodes.
-    pub mean_return: f64,
-    /// Their standard deviation.
-    pub std_return: f64,
-    /// Their mean length.
-    pub mean_length: f64,
-    /// How many episodes.
-    pub episodes: u64,
-    /// Their mean cost (`None` in files from before costs existed).
-    pub mean_cost: Option<f64>,
-}
-
-impl EvalRow {
-    /// The row as `eval.csv` holds it (without the newline).
-    pub fn to_csv(&self) -> String {
-        format!(
-            "{},{},{},{},{},{}",
-            self.total_steps,
-            self.mean_return,
-            self.std_return,
-            self.mean_length,
-            self.episodes,
-            self.mean_cost.map(|c| c.to_string()).unwrap_or_default()
         )
     }
 }
@@ -623,32 +591,4 @@ fn parse_metrics(path: &Path, text: &str) -> Result<Vec<EpisodeRow>> {
         episodes.push(episode);
     }
     Ok(episodes)
-}
-
-const EVAL_COLUMNS: &[&str] = &["total_steps", "mean_return", "std_return", "mean_length", "episodes"];
-
-fn parse_eval(path: &Path, text: &str) -> Result<Vec<EvalRow>> {
-    let file = CsvFile::parse(path, text, EVAL_HEADER, EVAL_COLUMNS)?;
-    let cost_column = file.optional_column("mean_cost");
-    let mut evaluations: Vec<EvalRow> = Vec::new();
-    for row in file.rows() {
-        let evaluation = EvalRow {
-            total_steps: row.get(0)?,
-            mean_return: row.finite(1)?,
-            std_return: row.finite(2)?,
-            mean_length: row.finite(3)?,
-            episodes: row.get(4)?,
-            mean_cost: cost_column.map(|i| row.optional_finite(i, "mean_cost")).transpose()?.flatten(),
-        };
-        if let Some(prev) = evaluations.last()
-            && evaluation.total_steps < prev.total_steps
-        {
-            return Err(row.error(format!(
-                "total_steps {} decreases (previous row: {})",
-                evaluation.total_steps, prev.total_steps
-            )));
-        }
-        evaluations.push(evaluation);
-    }
-    Ok(evaluations)
 }

@@ -8,6 +8,7 @@ use defender_rl::Budget;
 
 use crate::costs::{CostColumns, CostLimits};
 use crate::run::{DefenderSettings, Run};
+use crate::shield::ShieldColumns;
 use crate::stats::{Estimate, Stat};
 
 /// One row of the table: a task, an algorithm, a budget and a strategy (or none: the bare
@@ -54,6 +55,9 @@ pub struct Row {
     /// The field's cost measures, for a task with an episode cost limit ([`TableOptions`]);
     /// `None` for the others (the crash tasks).
     pub costs: Option<CostColumns>,
+    /// The evaluations with the filter kept, over the seeds that have them (DEFENDER runs);
+    /// `None` for a row without (a bare row, or runs from before they existed).
+    pub shield: Option<ShieldColumns>,
 }
 
 impl Row {
@@ -188,6 +192,7 @@ impl Table {
                 wall_seconds,
                 time_pct: Stat::of(&ratios),
                 costs,
+                shield: ShieldColumns::of(&group),
             };
             if !missing.is_empty() {
                 let list: Vec<String> = missing.iter().map(u64::to_string).collect();

@@ -32,6 +32,9 @@ pub struct RunSpec {
     pub eval_costs: Option<Vec<f64>>,
     /// Written as `summary.json`'s `episode_cost_limit`.
     pub cost_limit: Option<f64>,
+    /// The shielded evaluations `(mean_return, mean_cost, filtered)`, one per evaluation, written
+    /// as `eval.csv`'s `shield_*` columns (after `mean_cost`, empty when `eval_costs` is `None`).
+    pub shield: Option<Vec<(f64, f64, f64)>>,
 }
 
 impl RunSpec {
@@ -49,6 +52,7 @@ impl RunSpec {
             costs: None,
             eval_costs: None,
             cost_limit: None,
+            shield: None,
         }
     }
 
@@ -68,6 +72,12 @@ impl RunSpec {
     /// Evaluation mean costs, one per evaluation.
     pub fn eval_costs(mut self, costs: &[f64]) -> Self {
         self.eval_costs = Some(costs.to_vec());
+        self
+    }
+
+    /// Shielded evaluations `(mean_return, mean_cost, filtered)`, one per evaluation.
+    pub fn shield(mut self, shield: &[(f64, f64, f64)]) -> Self {
+        self.shield = Some(shield.to_vec());
         self
     }
 
@@ -163,7 +173,11 @@ impl RunSpec {
         std::fs::write(dir.join("metrics.csv"), metrics).unwrap();
 
         let mut eval = String::from("total_steps,mean_return,std_return,mean_length,episodes");
-        eval.push_str(if self.eval_costs.is_some() { ",mean_cost\n" } else { "\n" });
+        eval.push_str(match (&self.eval_costs, &self.shield) {
+            (_, Some(_)) => ",mean_cost,shield_mean_return,shield_mean_cost,shield_filtered\n",
+            (Some(_), None) => ",mean_cost\n",
+            (None, None) => "\n",
+        });
         let mut rows = Vec::new();
         match &self.evals {
             None => {
@@ -181,6 +195,14 @@ impl RunSpec {
         if let Some(costs) = &self.eval_costs {
             assert_eq!(costs.len(), rows.len(), "one mean cost per evaluation");
             rows.iter_mut().zip(costs).for_each(|(row, cost)| write!(row, ",{cost}").unwrap());
+        } else if self.shield.is_some() {
+            rows.iter_mut().for_each(|row| row.push(','));
+        }
+        if let Some(shield) = &self.shield {
+            assert_eq!(shield.len(), rows.len(), "one shielded evaluation per evaluation");
+            for (row, (ret, cost, filtered)) in rows.iter_mut().zip(shield) {
+                write!(row, ",{ret},{cost},{filtered}").unwrap();
+            }
         }
         rows.iter().for_each(|row| writeln!(eval, "{row}").unwrap());
         std::fs::write(dir.join("eval.csv"), eval).unwrap();
