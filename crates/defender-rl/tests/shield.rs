@@ -2,6 +2,7 @@
 //! shield gets every evaluation's episodes run again shielded, on the same reset seeds, each
 //! stopped before the first action the shield refuses; the unfiltered evaluations and training
 //! are those of the same run without a shield, bit for bit.
+#![allow(clippy::unwrap_used)] // helpers outside #[test] fns fail loudly on purpose
 
 use std::sync::{Arc, Mutex};
 
