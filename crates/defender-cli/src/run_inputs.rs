@@ -64,10 +64,9 @@ fn inputs(config: &RunConfig, args: &TrainArgs) -> Result<Vec<(&'static str, Pat
     }
     let demos = match &config.defender {
         Some(section) => Some(crate::setup::demos_path(&config.env, section.demos.as_deref())?),
-        None if config.algo_config().demos_in_replay() => {
-            config.demos.clone().or_else(|| defender_config::shipped_demos(&config.env))
-        }
-        None => None,
+        // Without a filter: the set a run stores before training (its replay buffer's, or Recovery
+        // RL's, which pretrains its safety critic on it).
+        None => crate::recovery_agent::bare_demos(config, config.algo_config().demos_in_replay())?,
     };
     if let Some(path) = demos {
         defender_io::check_regular(&path).with_context(|| format!("--demos {}", path.display()))?;

@@ -93,6 +93,12 @@ fn a_run_never_writes_over_what_it_reads_nor_over_a_file_of_another_kind() {
         &["which this run reads"],
     );
     assert_eq!(std::fs::read(&shipped).unwrap(), shipped_bytes);
+    // Recovery RL reads the shipped set too (its safety critic's offline data), without a filter.
+    refused(
+        &train(&out, &["--recovery", "0.3", "--record-episodes", s(&shipped)]),
+        &["which this run reads"],
+    );
+    assert_eq!(std::fs::read(&shipped).unwrap(), shipped_bytes);
     // The run's own files.
     refused(
         &train(&out, &["--record-episodes", s(&out.join("metrics.csv"))]),
