@@ -36,10 +36,14 @@ fn check(file: &str, arms: &[&str]) {
 
 #[test]
 fn baselines_arms_name_complete_runs_of_their_task() {
-    check("results/baselines/arms.txt", &["bare", "penalty", "lagrangian", "recovery", "demos", "defender"]);
+    let arms = ["bare", "penalty", "lagrangian-v1", "recovery-v1", "demos", "defender", "lagrangian", "pid"];
+    let more = ["recovery", "penalty-demos", "recovery-demos", "lagrangian-demos", "pid-demos"];
+    check("results/baselines/arms.txt", &[&arms[..], &more[..]].concat());
 }
 
 #[test]
 fn velocity_arms_name_complete_runs_of_their_task() {
-    check("results/velocity/arms.txt", &["bare", "lagrangian", "defender", "omnisafe-saclag"]);
+    let arms =
+        ["bare", "lagrangian-v1", "defender", "omnisafe-saclag", "lagrangian", "pid", "defender-limit"];
+    check("results/velocity/arms.txt", &arms);
 }
