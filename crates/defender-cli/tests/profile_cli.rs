@@ -129,3 +129,24 @@ fn learning_from_the_demonstrations_alone_is_the_default_learner_without_its_fil
     assert_eq!(config["sac"]["bc_form"].as_str(), Some("per-row"));
     assert_eq!(config["sac"]["warmup"].as_bool(), Some(false), "the profile's other keys stay");
 }
+
+/// Equal information (issue 48): every baseline runs with the default's learner half, the
+/// demonstrations in the buffer with per-row cloning, exactly as the demonstrations-alone run's
+/// `[sac]`, beside its own `[safety]`.
+#[test]
+fn every_baseline_takes_the_default_learner_half() {
+    let dir = tempfile::tempdir().unwrap();
+    let alone = train(&["--learn-from-demos", "--out", dir.path().join("alone").to_str().unwrap()]);
+    for (name, flags) in [
+        ("penalty", &["--penalty", "1"][..]),
+        ("lagrangian", &["--lagrangian", "0.2"][..]),
+        ("pid", &["--pid", "0.2"][..]),
+        ("recovery", &["--recovery", "0.3"][..]),
+    ] {
+        let out = dir.path().join(name);
+        let config = train(&[flags, &["--learn-from-demos", "--out", out.to_str().unwrap()]].concat());
+        assert_eq!(config["sac"], alone["sac"], "{name}");
+        assert_eq!(config["safety"]["method"].as_str(), Some(name));
+        assert!(!config.contains_key("defender"), "{name}: {config:?}");
+    }
+}
