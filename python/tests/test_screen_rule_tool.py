@@ -1,0 +1,88 @@
+"""tools/screen_rule.py applies the written screen rules (docs/decisions-baselines.md, issue 48;
+docs/decisions-velocity.md, issue 49) to run directories: here hand-made ones whose measures are
+known, so that a wrong count, window or choice shows."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from conftest import ROOT
+
+TOOL = ROOT / "tools" / "screen_rule.py"
+
+
+def make_run(path, steps, episodes, evals):
+    """A run directory: `episodes` as (total_steps, length, outcome, cost), `evals` as
+    (total_steps, mean_return, mean_cost[, shield_mean_cost])."""
+    path.mkdir(parents=True)
+    (path / "config.toml").write_text(f'env = "{path.parent.name}"\ntotal_steps = {steps}\n')
+    lines = ["episode,total_steps,return,length,outcome,wall_seconds,cost"]
+    lines += [f"{i},{t},1.0,{n},{o},0.1,{c}" for i, (t, n, o, c) in enumerate(episodes)]
+    (path / "metrics.csv").write_text("\n".join(lines) + "\n")
+    header = "total_steps,mean_return,std_return,mean_length,episodes,mean_cost"
+    shielded = any(len(e) == 4 for e in evals)
+    if shielded:
+        header += ",shield_mean_return,shield_mean_cost,shield_filtered"
+    rows = [header]
+    for e in evals:
+        row = f"{e[0]},{e[1]},0,10,5,{e[2]}"
+        if shielded:
+            row += f",1.0,{e[3]},0.2" if len(e) == 4 else ",,,"
+        rows.append(row)
+    (path / "eval.csv").write_text("\n".join(rows) + "\n")
+
+
+def run_tool(*args):
+    out = subprocess.run([sys.executable, str(TOOL), *args], check=True, capture_output=True, text=True)
+    return out.stdout
+
+
+def test_the_baselines_rule_counts_crashes_after_the_warm_up_and_reads_the_last_40_percent(tmp_path):
+    steps = 100_000
+    evals = lambda late: [(10_000, 9999.0, 0), (50_000, 9999.0, 0), (60_000, late, 0), (100_000, late, 0)]
+    bare = tmp_path / "bare" / "Hopper-v5"
+    # Bare SAC: 1000 late; crashes at 4,000 (warm-up: not counted) and 8,000.
+    for seed in (0, 1):
+        make_run(bare / f"sac-bare-s{seed}", steps, [(4000, 10, "crashed", 1), (8000, 10, "crashed", 1)], evals(1000.0))
+    screen = tmp_path / "screen" / "Hopper-v5"
+    # lag-a: 3 crashes after the warm-up, return 900 (above the bar of 800).
+    # lag-b: 1 crash, return 700 (below the bar): not chosen though it crashes less.
+    # pid-x: 5 crashes, return 500; pid-y: 2 crashes, 600: neither reaches the bar, pid-y's return is higher.
+    settings = {
+        "lag-a": (3, 900.0),
+        "lag-b": (1, 700.0),
+        "pid-x": (5, 500.0),
+        "pid-y": (2, 600.0),
+    }
+    for name, (crashes, ret) in settings.items():
+        for seed in (0, 1):
+            eps = [(1000, 5, "crashed", 1)] + [(6000 + 1000 * k, 5, "crashed", 1) for k in range(crashes)]
+            make_run(screen / f"sac-bare-{name}-s{seed}", steps, eps, evals(ret))
+    out = run_tool("baselines", str(tmp_path / "screen"), "--bare", str(tmp_path / "bare"))
+    assert "bare SAC 1000 (bar 800), 1 crashes after the warm-up" in out, out
+    assert "| sac-bare-lag-a | 2 | 3.0 | 900 | yes |" in out, out
+    assert "- lag: **sac-bare-lag-a** (the fewest crashes above the bar" in out, out
+    assert "- pid: **sac-bare-pid-y** (none reaches the bar: the highest return" in out, out
+
+
+def test_the_velocity_rule_weighs_the_limit_and_half_the_best_lagrangians_cost_rate(tmp_path):
+    steps = 100_000
+    root = tmp_path / "vel" / "SafetyHopperVelocity-v1"
+
+    def run(name, eval_cost, eval_return, cost, filtered=0):
+        # Ten episodes of 100 steps, the last `filtered` of them ended by the filter.
+        eps = [(100 * (k + 1), 100, "filtered" if k >= 10 - filtered else "truncated", cost / 10) for k in range(10)]
+        late = [(t, eval_return, eval_cost, 1.0) for t in (60_000, 80_000, 100_000)]
+        for seed in (0, 1):
+            make_run(root / f"{name}-s{seed}", steps, eps, [(10_000, 0.0, 999.0, 1.0)] + late)
+
+    run("sac-bare-lag", 20.0, 1000.0, 100.0)  # within the limit, return 1000, rate 0.1
+    run("sac-bare-pid", 30.0, 2000.0, 50.0)  # over the limit: not the best Lagrangian
+    run("sac-auto-def-a", 24.0, 1500.0, 40.0, filtered=2)  # rate 40 / 998 = 0.040: qualifies
+    run("sac-auto-def-b", 10.0, 1200.0, 30.0)  # qualifies, lower return
+    run("sac-auto-def-c", 5.0, 3000.0, 80.0)  # rate 0.08 > 0.05: out
+    out = run_tool("velocity", str(tmp_path / "vel"))
+    assert "| sac-auto-def-a | 2 | 24.0 | 1500 | 0.040 | 1.0 |" in out, out
+    assert "best Lagrangian: sac-bare-lag (training cost rate 0.100, bound 0.050)" in out, out
+    assert "- chosen: **sac-auto-def-a** (qualifies with the highest return)" in out, out
