@@ -66,6 +66,10 @@ pub(crate) fn algo_label(raw: &RawConfig) -> String {
         if d.filter != expected {
             tags.push(d.filter.label());
         }
+        // A filtered step that charges the learner the violation (docs/SPEC.md section 14).
+        if d.filtered_cost.as_deref() == Some("violation") {
+            tags.push("filtered charged".into());
+        }
     }
     if let Some(safety) = &raw.safety {
         tags.push(safety_tag(safety));
@@ -111,4 +115,36 @@ fn cost_options(safety: &toml::Table) -> String {
         tags.push_str(&format!(" clip={n}"));
     }
     tags
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn label(extra: &str) -> String {
+        let text = format!(
+            "env = \"Hopper-v5\"\nalgo = \"sac\"\nseed = 0\ntotal_steps = 10\ntotal_episodes = 0\n{extra}"
+        );
+        algo_label(&toml::from_str::<RawConfig>(&text).unwrap())
+    }
+
+    #[test]
+    fn the_lagrangian_agents_and_a_charged_filter_name_their_knobs() {
+        assert_eq!(
+            label("[safety]\nmethod = \"lagrangian\"\ncost_limit = 0.2\nlambda_lr = 0.01\n"),
+            "sac (lagrangian d=0.2)"
+        );
+        assert_eq!(
+            label(
+                "[safety]\nmethod = \"lagrangian\"\ncost_limit = 0.2\nlambda_lr = 0.1\ncost_normalize = true\nmax_grad_norm = 40.0\n"
+            ),
+            "sac (lagrangian d=0.2 lr=0.1 norm clip=40)"
+        );
+        assert_eq!(
+            label("[safety]\nmethod = \"pid\"\ncost_limit = 25.0\nki = 0.001\n"),
+            "sac (pid d=25 ki=0.001)"
+        );
+        let charged = "[defender]\nstrategy = \"MinBothW5/MinBothW10\"\nmode = \"state\"\nfiltered_cost = \"violation\"\n";
+        assert_eq!(label(charged), "sac (filtered charged)");
+    }
 }

@@ -508,6 +508,9 @@ pub(crate) struct RawDefender {
     cost: RawCost,
     #[serde(default)]
     pub(crate) filter: FilterOptions,
+    /// `violation` when a filtered step charges the learner (docs/SPEC.md section 14).
+    #[serde(default)]
+    pub(crate) filtered_cost: Option<String>,
 }
 
 #[derive(Deserialize, Default)]
