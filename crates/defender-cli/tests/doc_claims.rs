@@ -1,6 +1,6 @@
 //! What the documentation says about the repository holds: every section it cites by heading
 //! exists, every document it cites exists, and the experiment files with committed runs name
-//! the profile they were made with, as the README says.
+//! the profile they were made with, as docs/cli.md says.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};

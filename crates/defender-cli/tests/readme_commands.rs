@@ -1,6 +1,7 @@
-//! The README's commands are a test: every `defender` command in its shell code blocks that
-//! runs in seconds on the committed files is run (and must succeed); every other one must at
-//! least parse (`--list` for a sweep, else the command with `--help` appended, which clap only
+//! The README's commands are a test, and so are those of the two pages its long parts moved to
+//! (docs/cli.md, the command line; docs/python.md, the Python package): every `defender` command
+//! in their shell code blocks that runs in seconds on the committed files is run (and must
+//! succeed); every other one must at least parse (`--list` for a sweep, else the command with `--help` appended, which clap only
 //! reaches after checking every flag and value before it). `make` targets must exist in the
 //! Makefile. A command of a kind this test does not know fails it, so none goes unchecked.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -8,7 +9,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The README's commands that run in seconds on the committed files, as the README writes them.
+/// The pages whose `sh` code blocks this test checks.
+const PAGES: [&str; 3] = ["README.md", "docs/cli.md", "docs/python.md"];
+
+/// The commands that run in seconds on the committed files, as the pages write them.
 const RUN: [&str; 3] = [
     "defender env list",
     "defender report results/table1 --plots results/table1/plots",
@@ -19,9 +23,9 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
 }
 
-/// The commands of the README's `sh` code blocks: continuation lines joined, comments dropped.
-fn readme_commands() -> Vec<String> {
-    let text = std::fs::read_to_string(root().join("README.md")).unwrap();
+/// The commands of a page's `sh` code blocks: continuation lines joined, comments dropped.
+fn sh_commands(page: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(root().join(page)).unwrap_or_else(|e| panic!("{page}: {e}"));
     let mut commands = Vec::new();
     let mut in_sh = false;
     let mut pending = String::new();
@@ -80,15 +84,20 @@ fn defender(cwd: &Path, args: &[String]) -> std::process::Output {
 
 #[test]
 fn every_readme_command_runs_or_at_least_parses() {
-    let commands = readme_commands();
+    let mut commands = Vec::new();
+    for page in PAGES {
+        let found = sh_commands(page);
+        assert!(!found.is_empty(), "{page}: no command in its `sh` code blocks");
+        commands.extend(found.into_iter().map(|c| (page, c)));
+    }
     assert!(commands.len() > 20, "found only {} commands: {commands:?}", commands.len());
     for run in RUN {
-        assert!(commands.iter().any(|c| c == run), "`{run}` is no longer in the README: update RUN");
+        assert!(commands.iter().any(|(_, c)| c == run), "`{run}` is in none of {PAGES:?}: update RUN");
     }
     let makefile = std::fs::read_to_string(root().join("Makefile")).unwrap();
     let scratch = workspace();
     let cwd = scratch.path();
-    for command in &commands {
+    for (page, command) in &commands {
         let w = words(command);
         match w[0].as_str() {
             "defender" => {
@@ -102,19 +111,19 @@ fn every_readme_command_runs_or_at_least_parses() {
                     String::from_utf8_lossy(&out.stdout),
                     String::from_utf8_lossy(&out.stderr)
                 );
-                assert!(out.status.success(), "README: `{command}` (run as {args:?}) failed:\n{text}");
+                assert!(out.status.success(), "{page}: `{command}` (run as {args:?}) failed:\n{text}");
             }
             "make" => {
                 for target in w[1..].iter().filter(|t| !t.contains('=')) {
                     assert!(
                         makefile.contains(&format!("\n{target}:")),
-                        "README: `{command}`: no target {target}"
+                        "{page}: `{command}`: no target {target}"
                     );
                 }
             }
             // Installing is what `make test-wheel` checks, in a fresh venv.
-            "pip" => assert!(command.starts_with("pip install "), "README: `{command}`"),
-            other => panic!("README: `{command}`: a command of a kind this test does not check ({other})"),
+            "pip" => assert!(command.starts_with("pip install "), "{page}: `{command}`"),
+            other => panic!("{page}: `{command}`: a command of a kind this test does not check ({other})"),
         }
     }
 }
