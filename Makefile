@@ -10,7 +10,7 @@ setup:
 	@bash scripts/setup.sh
 
 # The main job: bare SAC and SAC with DEFENDER on a task with the shipped demonstrations,
-# then the paper's table and the plots (see README).
+# then the paper's table and the plots (README; docs/cli.md, "`make run` and `make test`").
 run: setup
 	@bash scripts/run.sh "$(RUN_DIR)"
 
@@ -51,7 +51,7 @@ fmt:
 tools-venv: setup
 	@bash scripts/tools-venv.sh
 
-# The Python package defender-rl (README, "Python"): the wheel built by maturin from
+# The Python package defender-rl (docs/python.md): the wheel built by maturin from
 # crates/defender-py and python/, installed into .deps/venv with python/requirements-test.txt.
 python: setup
 	@bash scripts/python.sh
@@ -60,7 +60,7 @@ python: setup
 test-python: python
 	.deps/venv/bin/python -m pytest python/tests -q -p no:cacheprovider
 
-# The wheel a user installs without Rust (README, "Python"): dist/defender_rl-*-cp310-abi3-
+# The wheel a user installs without Rust (docs/python.md): dist/defender_rl-*-cp310-abi3-
 # manylinux_2_17_x86_64.whl with the `defender` command, and the sdist. Tools: .deps/wheel-venv.
 wheel: setup
 	@bash scripts/wheel.sh

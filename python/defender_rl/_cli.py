@@ -78,7 +78,7 @@ def binary() -> Path:
         raise LaunchError(
             f"the defender command ships in the Linux x86_64 wheel only, and this is {here}; "
             "build it from the repository instead: `cargo install --path crates/defender-cli` "
-            "(Rust 1.95, MuJoCo 3.17.0; README, 'The command line')"
+            "(Rust 1.95, MuJoCo 3.17.0; docs/cli.md)"
         )
     raise LaunchError(
         f"this defender-rl has no defender binary ({exe} is missing): it was built from source, "

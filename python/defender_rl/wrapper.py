@@ -66,7 +66,7 @@ def _warn_statistics_inside(env: gym.Env) -> None:
                         f"{right}. With Stable-Baselines3's make_vec_env, wrapper_class=DefenderWrapper puts its "
                         "Monitor inside; pass a function that builds the wrapper instead: "
                         "make_vec_env(lambda: DefenderWrapper(gym.make(ENV_ID), demos), n_envs=N) "
-                        "(README, Stable-Baselines3)",
+                        "(docs/python.md, 'Stable-Baselines3')",
                         UserWarning,
                         stacklevel=3,  # the caller of DefenderWrapper(...)
                     )

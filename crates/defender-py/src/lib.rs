@@ -1,4 +1,4 @@
-//! `defender_rl._core`: the Rust half of the `defender-rl` Python package (README, "Python").
+//! `defender_rl._core`: the Rust half of the `defender-rl` Python package (docs/python.md).
 //!
 //! Everything DEFENDER decides is decided here, by the workspace's own code: the Gymnasium
 //! wrapper's core drives a [`defender::DefenderEnv`] whose inner environment is the Python
