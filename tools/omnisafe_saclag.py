@@ -121,9 +121,10 @@ class _EvalLogger:
         return getattr(self._logger, name)
 
 
-def hook_episodes(recorder: Recorder) -> None:
-    """Makes OmniSafe's off-policy adapter report each step, finished training episode and
-    evaluation episode to `recorder`.
+def hook_episodes(recorder: Recorder, adapter: type | None = None) -> None:
+    """Makes OmniSafe's off-policy adapter (or `adapter`: its on-policy one has the same two
+    methods and no evaluation) report each step, finished training episode and evaluation
+    episode to `recorder`.
 
     OmniSafe keeps the episode's sums in `_ep_ret`/`_ep_cost`/`_ep_len` (raw values, before
     normalisation) and passes them to `_log_metrics` when the episode ends, before resetting them;
@@ -131,13 +132,11 @@ def hook_episodes(recorder: Recorder) -> None:
     sums in the logger (whose progress.csv shows only a mean over its last 50 values). All three
     are wrapped, not replaced, so OmniSafe's own logging is unchanged.
     """
-    from omnisafe.adapter.offpolicy_adapter import OffPolicyAdapter
+    if adapter is None:
+        from omnisafe.adapter.offpolicy_adapter import OffPolicyAdapter as adapter
 
-    log_value, log_metrics, eval_policy = (
-        OffPolicyAdapter._log_value,
-        OffPolicyAdapter._log_metrics,
-        OffPolicyAdapter.eval_policy,
-    )
+    log_value, log_metrics = adapter._log_value, adapter._log_metrics
+    eval_policy = getattr(adapter, "eval_policy", None)
 
     def _log_value(self, reward, cost, info):  # noqa: ANN001 (OmniSafe's signature)
         log_value(self, reward=reward, cost=cost, info=info)
@@ -150,9 +149,10 @@ def hook_episodes(recorder: Recorder) -> None:
     def _eval_policy(self, episode, agent, logger):  # noqa: ANN001
         eval_policy(self, episode, agent, _EvalLogger(logger, recorder))
 
-    OffPolicyAdapter._log_value = _log_value
-    OffPolicyAdapter._log_metrics = _log_metrics
-    OffPolicyAdapter.eval_policy = _eval_policy
+    adapter._log_value = _log_value
+    adapter._log_metrics = _log_metrics
+    if eval_policy is not None:
+        adapter.eval_policy = _eval_policy
 
 
 def versions() -> dict[str, str]:
