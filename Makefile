@@ -4,7 +4,7 @@ SHELL := /bin/bash
 CARGO ?= cargo
 RUN_DIR ?= runs/main
 
-.PHONY: setup run test bench bench-peers bench-omnisafe lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel test-safety-gym
+.PHONY: setup run test bench bench-peers bench-omnisafe lint fmt tools-venv clean-deps python test-python test-sb3 wheel test-wheel test-safety-gym test-omnisafe
 
 setup:
 	@bash scripts/setup.sh
@@ -82,6 +82,13 @@ test-safety-gym: wheel
 test-sb3: python
 	.deps/venv/bin/python -m pip install --quiet --disable-pip-version-check -r python/requirements-sb3.txt
 	.deps/venv/bin/python -m pytest python/tests_sb3 -q -p no:cacheprovider
+
+# Opt-in, not part of `make test`: OmniSafe's SACLag and PPOLag trained a few thousand steps each on
+# a DEFENDER-wrapped SafetyHopperVelocity-v1 through OmniSafe's API (tools/omnisafe_defender.py), in
+# OmniSafe's venv (tools/omnisafe-venv.sh: about 6 GB); the wheel goes in without changing any of
+# its packages (scripts/test-omnisafe.sh).
+test-omnisafe: wheel
+	@bash scripts/test-omnisafe.sh
 
 clean-deps:
 	rm -rf .deps
