@@ -97,7 +97,8 @@ def test_tensorboard_reads_every_scalar_at_environment_steps(run):
         "train/critic_loss", "train/mean_q", "train/actor_loss", "train/ent_coef", "train/n_updates",
         "defender/dynamics_error", "defender/dynamics_loss", "defender/mean_safe_cost", "defender/mean_unsafe_cost",
         "defender/filtered_step_rate", "defender/r_task", "time/fps",
-        "eval/mean_reward", "eval/std_reward", "eval/mean_ep_length",
+        "eval/mean_reward", "eval/std_reward", "eval/mean_ep_length", "eval/mean_cost",
+        "eval/shield_mean_reward", "eval/shield_mean_cost", "eval/shield_filtered",
         "safety/crashes", "safety/episode_cost",
     }
     assert expected <= tags, expected - tags
@@ -119,6 +120,13 @@ def test_tensorboard_reads_every_scalar_at_environment_steps(run):
     assert [e.value for e in acc.Scalars("defender/dynamics_error")] == pytest.approx([float(d[4]) for d in dynamics], rel=1e-5)
     evals = [line.split(",") for line in (run / "eval.csv").read_text().splitlines()[1:]]
     assert [e.step for e in acc.Scalars("eval/mean_reward")] == [int(v[0]) for v in evals]
+    # The evaluation with the filter kept: eval.csv's shield columns, row by row.
+    header = (run / "eval.csv").read_text().splitlines()[0].split(",")
+    for tag, column in (("eval/mean_cost", "mean_cost"), ("eval/shield_mean_reward", "shield_mean_return"),
+                        ("eval/shield_mean_cost", "shield_mean_cost"), ("eval/shield_filtered", "shield_filtered")):
+        at = header.index(column)
+        assert [e.step for e in acc.Scalars(tag)] == [int(v[0]) for v in evals], tag
+        assert [e.value for e in acc.Scalars(tag)] == pytest.approx([float(v[at]) for v in evals], rel=1e-6, abs=1e-9), tag
     costs = acc.Scalars("defender/mean_safe_cost")
     assert [e.step for e in costs] == [1000, 2000] and all(c.value > 0 for c in costs)
 
@@ -172,7 +180,8 @@ def test_report_converts_a_runs_csv_files(binary, run, tmp_path):
     converted = out / run.name
     assert len(event_files(converted)) == 1
     mine, theirs = raw_scalars(converted), raw_scalars(run)
-    for tag in ("episode/return", "episode/length", "defender/filter_rate_recent", "train/critic_loss", "defender/dynamics_error", "eval/mean_reward"):
+    for tag in ("episode/return", "episode/length", "defender/filter_rate_recent", "train/critic_loss", "defender/dynamics_error", "eval/mean_reward",
+                "eval/shield_mean_reward", "eval/shield_filtered"):
         assert mine[tag] == theirs[tag], tag
     # Converting again replaces the file rather than adding a second curve.
     subprocess.run([str(binary), "report", str(run.parent), "--tensorboard", str(out)], check=True, capture_output=True)

@@ -9,6 +9,7 @@ mod output;
 mod commands;
 mod cost_meter;
 mod demo_horizon;
+mod eval_line;
 mod progress;
 mod recovery_agent;
 mod resumable;

@@ -29,8 +29,9 @@ fn metrics_row(r: &EpisodeRecord) -> String {
     .to_csv()
 }
 
-/// One `eval.csv` row (the shielded columns empty for a run without a filter).
-fn eval_row(r: &EvalRecord) -> String {
+/// An evaluation as `eval.csv` holds it (the shielded columns empty for a run without a filter);
+/// the TensorBoard board writes its scalars from the same row, so the two cannot disagree.
+pub fn eval_row(r: &EvalRecord) -> EvalRow {
     EvalRow {
         total_steps: r.total_steps,
         mean_return: r.mean_return,
@@ -44,7 +45,6 @@ fn eval_row(r: &EvalRecord) -> String {
             filtered: s.filtered,
         }),
     }
-    .to_csv()
 }
 
 /// An open run directory.
@@ -72,7 +72,8 @@ impl RunDir {
             .with_context(|| format!("cannot create run directory {}", root.display()))?;
         let metrics =
             Self::start_csv(&root.join(METRICS_FILE), METRICS_HEADER, episodes.iter().map(metrics_row))?;
-        let eval = Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(eval_row))?;
+        let eval =
+            Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(|r| eval_row(r).to_csv()))?;
         let updates = Self::restart_csv(&root.join(UPDATES_FILE), UPDATES_HEADER, total_steps)?;
         let dynamics = if dynamics {
             Some(Self::restart_csv(&root.join(DYNAMICS_FILE), DYNAMICS_HEADER, total_steps)?)
@@ -158,7 +159,7 @@ impl RunDir {
 
     /// Appends an evaluation to `eval.csv`.
     pub fn append_eval(&mut self, record: &EvalRecord) -> Result<()> {
-        writeln!(self.eval, "{}", eval_row(record))
+        writeln!(self.eval, "{}", eval_row(record).to_csv())
             .and_then(|()| self.eval.flush())
             .with_context(|| format!("cannot append to {}", self.root.join(EVAL_FILE).display()))
     }

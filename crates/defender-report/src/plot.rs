@@ -70,17 +70,26 @@ pub enum PlotKind {
     /// (f) Evaluation mean cost (`eval.csv`'s `mean_cost`) vs steps, the episode cost limit
     /// drawn across (`*_eval_cost`), for a task with a cost limit only.
     EvalCost,
+    /// (g) The evaluation return with the filter kept (`eval.csv`'s `shield_mean_return`; a
+    /// filtered step ends the episode) vs steps (`*_shield_eval`), for the configurations with a
+    /// filter only.
+    ShieldEval,
+    /// (h) Its mean cost (`shield_mean_cost`), the limit drawn across (`*_shield_eval_cost`), for a
+    /// task with a cost limit only.
+    ShieldEvalCost,
 }
 
 impl PlotKind {
     /// All kinds, in file order.
-    pub const ALL: [PlotKind; 6] = [
+    pub const ALL: [PlotKind; 8] = [
         PlotKind::Return,
         PlotKind::CrashRate,
         PlotKind::Evaluation,
         PlotKind::Crashes,
         PlotKind::Cost,
         PlotKind::EvalCost,
+        PlotKind::ShieldEval,
+        PlotKind::ShieldEvalCost,
     ];
 
     /// The file-name suffix.
@@ -92,13 +101,34 @@ impl PlotKind {
             PlotKind::Crashes => "crashes",
             PlotKind::Cost => "cost",
             PlotKind::EvalCost => "eval_cost",
+            PlotKind::ShieldEval => "shield_eval",
+            PlotKind::ShieldEvalCost => "shield_eval_cost",
         }
     }
 
     /// Whether the plot is drawn only for a task with an episode cost limit: a crash task's
     /// cost is its crashes, which `*_crashes` already shows.
     pub fn needs_cost_limit(self) -> bool {
-        matches!(self, PlotKind::Cost | PlotKind::EvalCost)
+        matches!(self, PlotKind::Cost | PlotKind::EvalCost | PlotKind::ShieldEvalCost)
+    }
+
+    /// Whether the plot shows the evaluations with the filter kept: drawn for the configurations
+    /// with a filter, and only when one of them has such evaluations.
+    pub fn is_shielded(self) -> bool {
+        matches!(self, PlotKind::ShieldEval | PlotKind::ShieldEvalCost)
+    }
+
+    /// Whether the curve is the evaluations' (one point per evaluation, markers drawn).
+    fn is_evaluation(self) -> bool {
+        matches!(
+            self,
+            PlotKind::Evaluation | PlotKind::EvalCost | PlotKind::ShieldEval | PlotKind::ShieldEvalCost
+        )
+    }
+
+    /// Whether the episode cost limit is drawn across.
+    fn draws_limit(self) -> bool {
+        matches!(self, PlotKind::EvalCost | PlotKind::ShieldEvalCost)
     }
 }
 
@@ -189,6 +219,10 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             |curve: &dyn Fn(&Run) -> Curve, grid: Grid, name: &str, why: &str, notes: &mut Vec<String>| {
                 let mut bands = Vec::new();
                 for (i, (key, seeds)) in by_filter.iter().enumerate() {
+                    // A shielded curve exists only where there is a filter to keep.
+                    if name.starts_with("shield") && !key.0 {
+                        continue;
+                    }
                     let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r)).collect();
                     let label = label(*key, seeds.len());
                     match band(&curves, grid) {
@@ -206,15 +240,22 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             if kind.needs_cost_limit() && limit.is_none() {
                 continue;
             }
-            let grid = match kind {
-                PlotKind::Evaluation | PlotKind::EvalCost => Grid::Union,
-                _ => Grid::Linear(options.grid_points),
-            };
+            let shielded =
+                || by_filter.values().flatten().any(|r| r.evaluations.iter().any(|e| e.shield.is_some()));
+            if kind.is_shielded() && !shielded() {
+                continue;
+            }
+            let grid = if kind.is_evaluation() { Grid::Union } else { Grid::Linear(options.grid_points) };
             let name = kind.suffix();
             let why = match kind {
                 PlotKind::EvalCost => {
                     "a seed has no evaluation with a cost (eval.csv's mean_cost) or the seeds share no \
                      step range"
+                        .to_string()
+                }
+                PlotKind::ShieldEval | PlotKind::ShieldEvalCost => {
+                    "a seed has no evaluation with the filter kept (eval.csv's shield columns) or the \
+                     seeds share no step range"
                         .to_string()
                 }
                 _ => format!("the seeds' {name} share no step range"),
@@ -228,15 +269,17 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 y_label: y_label(kind, options),
                 y_from: matches!(
                     kind,
-                    PlotKind::CrashRate | PlotKind::Crashes | PlotKind::Cost | PlotKind::EvalCost
+                    PlotKind::CrashRate
+                        | PlotKind::Crashes
+                        | PlotKind::Cost
+                        | PlotKind::EvalCost
+                        | PlotKind::ShieldEvalCost
                 )
                 .then_some(0.0),
                 x_from: None,
-                markers: matches!(kind, PlotKind::Evaluation | PlotKind::EvalCost),
+                markers: kind.is_evaluation(),
                 bands,
-                limit: limit
-                    .filter(|_| kind == PlotKind::EvalCost)
-                    .map(|l| (l, format!("episode cost limit ({l})"))),
+                limit: limit.filter(|_| kind.draws_limit()).map(|l| (l, format!("episode cost limit ({l})"))),
             };
             let base = dir.join(format!("{stem}_{}", kind.suffix()));
             plots.files.extend(write_figure(&chart, &base, (options.width, options.height))?);
@@ -321,6 +364,8 @@ fn title(env: &str, algo: &str, budget: Budget, kind: PlotKind) -> String {
         PlotKind::Crashes => "crashes against environment steps",
         PlotKind::Cost => "cumulative cost against environment steps",
         PlotKind::EvalCost => "evaluation cost",
+        PlotKind::ShieldEval => "evaluation return with the filter kept",
+        PlotKind::ShieldEvalCost => "evaluation cost with the filter kept",
     };
     format!("{env}, {}, {budget}: {what}", crate::run::algo_display(algo))
 }
@@ -336,6 +381,8 @@ fn y_label(kind: PlotKind, options: &PlotOptions) -> String {
         PlotKind::Crashes => "crashes so far (x: steps that reached the environment)".into(),
         PlotKind::Cost => "training cost so far (x: steps that reached the environment)".into(),
         PlotKind::EvalCost => "mean evaluation episode cost".into(),
+        PlotKind::ShieldEval => "mean evaluation return (a filtered step ends the episode)".into(),
+        PlotKind::ShieldEvalCost => "mean evaluation episode cost (a filtered step ends the episode)".into(),
     }
 }
 
@@ -371,6 +418,12 @@ fn curve(run: &Run, kind: PlotKind, options: &PlotOptions) -> (Vec<f64>, Vec<f64
         // Rows of a file from before costs existed have no cost: left out.
         PlotKind::EvalCost => {
             run.evaluations.iter().filter_map(|e| Some((e.total_steps as f64, e.mean_cost?))).unzip()
+        }
+        PlotKind::ShieldEval => {
+            run.evaluations.iter().filter_map(|e| Some((e.total_steps as f64, e.shield?.mean_return))).unzip()
+        }
+        PlotKind::ShieldEvalCost => {
+            run.evaluations.iter().filter_map(|e| Some((e.total_steps as f64, e.shield?.mean_cost))).unzip()
         }
     }
 }

@@ -120,3 +120,49 @@ fn tables_without_a_shielded_evaluation_keep_their_columns() {
         assert!(!render(&table, format).contains("Shield"), "{format:?}");
     }
 }
+
+#[test]
+fn the_plots_add_the_shielded_evaluation_for_the_configurations_with_a_filter() {
+    let root = tempfile::tempdir().unwrap();
+    let runs = root.path().join("runs");
+    for seed in 0..2 {
+        RunSpec::new("sac", seed, None).env(VELOCITY).eval_costs(&[30.0, 40.0, 30.0, 40.0]).write(&runs);
+        let shield = [(10.0, 5.0 + seed as f64, 0.5), (20.0, 7.0, 0.25)];
+        RunSpec::new("sac", seed, A)
+            .env(VELOCITY)
+            .evals(&[(50.0, 1000.0); 2])
+            .eval_costs(&[9.0, 8.0])
+            .shield(&shield)
+            .write(&runs);
+    }
+    let set = load_runs(&[&runs]).unwrap();
+    let options = defender_report::PlotOptions {
+        cost_limits: [(VELOCITY, 25.0)].into_iter().collect(),
+        ..defender_report::PlotOptions::default()
+    };
+    let plots = defender_report::draw_plots(&set.runs, root.path().join("p"), &options).unwrap();
+    assert!(plots.notes.is_empty(), "{:?}", plots.notes);
+    let read = |kind: &str| {
+        std::fs::read_to_string(root.path().join(format!("p/{VELOCITY}_sac_{kind}.svg"))).unwrap()
+    };
+    let svg = read("shield_eval");
+    assert!(svg.contains("evaluation return with the filter kept"), "{svg}");
+    assert!(svg.contains(&format!("{} [2 seeds]", A.unwrap().0)), "the filtered configuration: {svg}");
+    assert!(!svg.contains("(bare)"), "no filter to keep in a bare run: {svg}");
+    let svg = read("shield_eval_cost");
+    assert!(
+        svg.contains("evaluation cost with the filter kept") && svg.contains("episode cost limit (25)"),
+        "{svg}"
+    );
+    // The unfiltered evaluation cost plot still shows both configurations.
+    assert!(read("eval_cost").contains("(bare)"));
+}
+
+#[test]
+fn no_shielded_plot_without_a_shielded_evaluation() {
+    let root = tempfile::tempdir().unwrap();
+    RunSpec::new("sac", 0, A).env(VELOCITY).eval_costs(&[1.0, 2.0, 3.0, 4.0]).write(root.path());
+    let set = load_runs(&[root.path()]).unwrap();
+    let plots = defender_report::draw_plots(&set.runs, root.path().join("p"), &Default::default()).unwrap();
+    assert!(plots.files.iter().all(|p| !p.to_string_lossy().contains("shield")), "{:?}", plots.files);
+}

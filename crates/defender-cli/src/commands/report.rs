@@ -34,7 +34,9 @@ filtered steps not counted), Eval cost (last-10: the evaluations' mean cost over
 Episodes cost > 25 (training episodes over the limit, counted) and % episodes cost > 25 (the
 same / all training episodes: like % Crash, a filter's own episodes join its denominator);
 --plots adds *_cost (cumulative training cost) and *_eval_cost (evaluation cost, the limit drawn
-across).
+across). Where DEFENDER runs have evaluations with the filter kept (eval.csv's shield_* columns),
+--plots adds *_shield_eval (their return) and, on a cost task, *_shield_eval_cost, for the
+configurations with a filter.
 
 A run directory that is not complete is left out and listed, with its state: still running
 (its lock is held), stopped (a checkpoint to resume from) or broken; --strict makes that an

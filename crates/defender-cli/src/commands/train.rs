@@ -9,6 +9,7 @@ use defender_rl::{
     Transition,
 };
 
+use crate::eval_line::eval_line;
 use crate::progress;
 use crate::run_dir::{self, RunDir};
 use crate::setup::{self, TrainingRecorder};
@@ -338,7 +339,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
             note!("recorded {} training episodes into {}", recorder.len(), path.display());
         }
     }
-    print_summary(&args.out, &summary, &config, matches!(end, RunEnd::Stopped));
+    print_summary(&args.out, &summary, &config, trainer.evaluations(), matches!(end, RunEnd::Stopped));
     match (&end, stop.exit_code()) {
         (RunEnd::Stopped, Some(code)) => Err(Stopped { code }.into()),
         _ => Ok(()),
@@ -367,7 +368,7 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 /// `config`: for the run's `[safety]` baseline and whether its learner takes the demonstrations,
 /// which `summary.json` does not record, so that a penalty, Lagrangian, recovery or
 /// demonstrations-alone run is not called bare.
-fn print_summary(out: &Path, s: &Summary, config: &RunConfig, stopped: bool) {
+fn print_summary(out: &Path, s: &Summary, config: &RunConfig, evals: &[EvalRecord], stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
     let demos = config.algo_config().demos_in_replay();
     let what = match (s.strategy, config.safety.as_ref().map(defender_rl::SafetyConfig::method)) {
@@ -403,6 +404,9 @@ fn print_summary(out: &Path, s: &Summary, config: &RunConfig, stopped: bool) {
         s.steps_per_second,
         s.wall_seconds
     );
+    if let Some(line) = eval_line(evals) {
+        say!("{line}");
+    }
     if stopped {
         say!("stopped; continue with: defender train --out {} --resume", out.display());
     } else {

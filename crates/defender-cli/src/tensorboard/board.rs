@@ -15,7 +15,9 @@
 //!   run the dynamics model (`defender/dynamics_error`: the moving average of its prediction
 //!   error on fresh transitions, `defender/dynamics_loss`) and the window's mean costs
 //!   (`defender/mean_safe_cost`, `defender/mean_unsafe_cost`, `defender/filtered_step_rate`);
-//! * at each evaluation: `eval/mean_reward`, `eval/std_reward`, `eval/mean_ep_length`;
+//! * at each evaluation: `eval/mean_reward`, `eval/std_reward`, `eval/mean_ep_length`,
+//!   `eval/mean_cost`, and for a DEFENDER run the evaluation with the filter kept
+//!   (`eval/shield_mean_reward`, `eval/shield_mean_cost`, `eval/shield_filtered`);
 //! * once: `defender/r_task`.
 //!
 //! A checkpoint records the file's name and length (`extra/tensorboard.json`); a resumed run
@@ -27,11 +29,13 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use defender_report::EvalRow;
 use defender_rl::{EpisodeRecord, EvalRecord, Outcome};
 use serde::{Deserialize, Serialize};
 
 use super::event_file::{EventFile, now};
 use crate::cost_meter::{self, CostWindow, SharedCosts};
+use crate::run_dir;
 use crate::update_log::{DynamicsRow, UpdateRow};
 
 /// The board's state in a checkpoint's extra directory.
@@ -121,9 +125,23 @@ pub fn dynamics_scalars(row: &DynamicsRow) -> Vec<(&'static str, f64)> {
     v
 }
 
-/// The scalars of an evaluation.
-pub fn eval_scalars(mean: f64, std: f64, length: f64) -> [(&'static str, f64); 3] {
-    [("eval/mean_reward", mean), ("eval/std_reward", std), ("eval/mean_ep_length", length)]
+/// The scalars of an evaluation: its cost where `eval.csv` has one, and for a run with a filter
+/// the same episodes with the filter kept (`eval/shield_*`).
+pub fn eval_scalars(v: &EvalRow) -> Vec<(&'static str, f64)> {
+    let mut out = vec![
+        ("eval/mean_reward", v.mean_return),
+        ("eval/std_reward", v.std_return),
+        ("eval/mean_ep_length", v.mean_length),
+    ];
+    out.extend(v.mean_cost.map(|c| ("eval/mean_cost", c)));
+    if let Some(s) = v.shield {
+        out.extend([
+            ("eval/shield_mean_reward", s.mean_return),
+            ("eval/shield_mean_cost", s.mean_cost),
+            ("eval/shield_filtered", s.filtered),
+        ]);
+    }
+    out
 }
 
 /// Removes the event files of `dir` other than `keep`: those of an attempt that is being
@@ -285,7 +303,7 @@ impl TrainingBoard {
     /// # Errors
     /// A file that cannot be written.
     pub fn evaluation(&mut self, r: &EvalRecord) -> Result<()> {
-        self.file.scalars(r.total_steps, now(), &eval_scalars(r.mean_return, r.std_return, r.mean_length))?;
+        self.file.scalars(r.total_steps, now(), &eval_scalars(&run_dir::eval_row(r)))?;
         self.flush()
     }
 

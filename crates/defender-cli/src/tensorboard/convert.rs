@@ -70,11 +70,7 @@ pub fn write_run(run: &Run, dir: &Path) -> Result<PathBuf> {
         file.scalars(d.total_steps, clock(d.total_steps), &dynamics_scalars(d))?;
     }
     for v in &run.evaluations {
-        file.scalars(
-            v.total_steps,
-            clock(v.total_steps),
-            &eval_scalars(v.mean_return, v.std_return, v.mean_length),
-        )?;
+        file.scalars(v.total_steps, clock(v.total_steps), &eval_scalars(v))?;
     }
     file.flush()?;
     Ok(path)
