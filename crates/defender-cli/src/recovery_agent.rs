@@ -11,8 +11,7 @@ use defender_rl::safety::RecoveryConfig;
 use defender_rl::safety::recovery::Recovery;
 use defender_rl::{Agent, AlgoConfig, Sac, SafetyConfig};
 
-/// Recovery RL around the run's SAC. Their task learner is SAC and the safety critic's target
-/// samples the task policy, so TD3 is refused, naming the key.
+/// Recovery RL around the run's SAC, boxed as a run's agent ([`build_recovery`]).
 pub fn build(
     recovery: &RecoveryConfig,
     algo: &AlgoConfig,
@@ -20,6 +19,19 @@ pub fn build(
     act_dim: usize,
     seed: u64,
 ) -> Result<Box<dyn Agent>> {
+    Ok(Box::new(build_recovery(recovery, algo, obs_dim, act_dim, seed)?))
+}
+
+/// Recovery RL around the run's SAC, as a run builds it (`defender demos risk-horizon` measures
+/// this agent's safety critic). Their task learner is SAC and the safety critic's target samples
+/// the task policy, so TD3 is refused, naming the key.
+pub fn build_recovery(
+    recovery: &RecoveryConfig,
+    algo: &AlgoConfig,
+    obs_dim: usize,
+    act_dim: usize,
+    seed: u64,
+) -> Result<Recovery> {
     let AlgoConfig::Sac(sac) = algo else {
         bail!(
             "algo = \"{}\": [safety] method = \"recovery\" wraps SAC (the task learner of Recovery RL's \
@@ -28,7 +40,7 @@ pub fn build(
         );
     };
     let task = Sac::new(sac.clone(), obs_dim, act_dim, seed)?;
-    Ok(Box::new(Recovery::new(task, recovery.clone(), seed).context("[safety]")?))
+    Recovery::new(task, recovery.clone(), seed).context("[safety]")
 }
 
 /// Whether the run is Recovery RL, which needs the demonstrations whatever `demos_in_replay` says.

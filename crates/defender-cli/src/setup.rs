@@ -192,7 +192,7 @@ fn load_pinned(path: &Path, pinned: Option<&str>) -> Result<(EpisodeSet, String)
 /// authors' `demos_in_replay`), actions normalised to [-1, 1] as the trainer stores them. The
 /// last transition of a crashed demonstration is terminal, that of a safe one a time-limit cut;
 /// a safe demonstration's transitions are marked for behaviour cloning.
-fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpace) -> Result<()> {
+pub(crate) fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpace) -> Result<()> {
     let mut action = vec![0.0f32; space.dim()];
     let mut obs = Vec::new();
     let mut next = Vec::new();
@@ -206,11 +206,7 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
             obs.extend(episode.observation(t).iter().map(|&v| f64::from(v)));
             next.clear();
             next.extend(episode.observation(t + 1).iter().map(|&v| f64::from(v)));
-            for ((a, &raw), (&low, &high)) in
-                action.iter_mut().zip(episode.action(t)).zip(space.low().iter().zip(space.high()))
-            {
-                *a = (2.0 * (f64::from(raw) - low) / (high - low) - 1.0) as f32;
-            }
+            normalized_action(episode.action(t), space, &mut action);
             let last = t + 1 == episode.len();
             let transition = Transition {
                 obs: &obs,
@@ -226,6 +222,14 @@ fn preload(agent: &mut dyn Agent, set: &EpisodeSet, space: &defender_rl::BoxSpac
         }
     }
     Ok(())
+}
+
+/// A demonstration's recorded action `raw` mapped to [-1, 1], the box the agents act in, as the
+/// trainer stores actions.
+pub(crate) fn normalized_action(raw: &[f32], space: &defender_rl::BoxSpace, out: &mut [f32]) {
+    for ((a, &raw), (&low, &high)) in out.iter_mut().zip(raw).zip(space.low().iter().zip(space.high())) {
+        *a = (2.0 * (f64::from(raw) - low) / (high - low) - 1.0) as f32;
+    }
 }
 
 /// The SHA-256 of a file's bytes, as lower-case hex.

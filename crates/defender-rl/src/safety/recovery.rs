@@ -47,6 +47,13 @@ struct RecoveryState {
     risk: RiskState,
 }
 
+/// Whether the recovery policy takes over from an action of risk `q_risk`: strictly above
+/// `eps_risk`, as their `critic_val > eps_safe`, compared in the critic's precision. Offline
+/// measurements of the switch (`defender demos risk-horizon`) use the same rule.
+pub fn too_risky(q_risk: f32, eps_risk: f64) -> bool {
+    q_risk > eps_risk as f32
+}
+
 /// The proposed action of the last exploration step, until its transition is observed.
 #[derive(Debug, Clone)]
 struct Proposal {
@@ -180,8 +187,7 @@ impl Agent for Recovery {
         self.proposal.obs.copy_from_slice(obs);
         self.proposal.action.copy_from_slice(action);
         self.proposal.live = true;
-        // Strictly above the threshold, as their `critic_val > eps_safe`.
-        if self.risk.value(&self.obs1, action) > self.config.eps_risk as f32 {
+        if too_risky(self.risk.value(&self.obs1, action), self.config.eps_risk) {
             self.risk.policy.act(&self.obs1, false, &mut self.risk.rng, action);
             self.recovery_steps += 1;
         }

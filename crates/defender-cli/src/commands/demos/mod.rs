@@ -1,10 +1,15 @@
 //! `defender demos collect`: demonstrations as in the paper (`spec.rs`: SPEC's rule, the default)
 //! or as the authors' code made them (`authors.rs`), from the same arguments (`args.rs`) and the
-//! same recording of one episode of the current policy (`record.rs`).
+//! same recording of one episode of the current policy (`record.rs`). `defender demos
+//! risk-horizon`: how far ahead of a crash Recovery RL's safety critic, pretrained on them, warns
+//! (`risk_horizon.rs`, `risk_measure.rs`, `risk_csv.rs`).
 
 mod args;
 mod authors;
 mod record;
+mod risk_csv;
+mod risk_horizon;
+mod risk_measure;
 mod spec;
 
 use anyhow::Result;
@@ -12,6 +17,7 @@ use clap::Subcommand;
 
 pub use args::{CollectArgs, Learner};
 use defender_config::profile::Profile;
+pub use risk_horizon::RiskHorizonArgs;
 
 /// `defender demos` subcommands.
 #[derive(Debug, Subcommand)]
@@ -41,6 +47,9 @@ reward, was taken over all of them), each group written in their diversity order
 over pairwise FastDTW L1 of the state sequences), so that the first N of a group are the N they
 chose: train with `num_demos = N` (their n_demos, 50) to filter with their choice.")]
     Collect(CollectArgs),
+    /// How many steps and seconds before a crash Recovery RL's pretrained safety critic passes
+    /// eps_risk, on held-out demonstrations.
+    RiskHorizon(RiskHorizonArgs),
 }
 
 /// Runs a `demos` subcommand.
@@ -50,5 +59,6 @@ pub fn run(cmd: DemosCommand) -> Result<()> {
             Profile::Spec | Profile::KeepsLearning => spec::collect(&args),
             Profile::Authors => authors::collect(&args),
         },
+        DemosCommand::RiskHorizon(args) => risk_horizon::run(&args),
     }
 }
