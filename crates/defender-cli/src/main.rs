@@ -38,7 +38,8 @@ enum Command {
     /// The MuJoCo tasks: list them, replay recorded actions from a given state.
     #[command(subcommand)]
     Env(commands::env::EnvCommand),
-    /// Demonstrations: collect safe and unsafe ones by training SAC, as in the paper.
+    /// Demonstrations: collect safe and unsafe ones by training SAC, as in the paper; measure on
+    /// them how far ahead of a crash Recovery RL's safety critic warns.
     #[command(subcommand)]
     Demos(commands::demos::DemosCommand),
     /// Train SAC or TD3 on a task, bare or with DEFENDER, into a run directory.
