@@ -11,7 +11,12 @@
 #      `defender train --strategy auto` chooses);
 #   4. the offline screen: seed 1's recorded training episodes replayed in order through that
 #      strategy, plain and z-scored, with SPEC's filter, own episodes 50 and the default
-#      (margin 0.02 + own 50) (`defender screen`).
+#      (margin 0.02 + own 50) (`defender screen`);
+#   5. the diagnostic (docs/results-navigation.md, "Why"): steps 3 and 4 again on copies of both
+#      sets whose observation is only the hazards lidar (16 features), and only its largest bin
+#      (1 feature: the nearness of the closest hazard), into OUT/features/
+#      (tools/navigation_features.py);
+#   6. the figures the page quotes beside the screens (tools/navigation_summary.py -> summary.json).
 #
 # Every step is deterministic given the seeds (one torch thread; OmniSafe seeds torch and the task's
 # first reset, DemoRecorder resets every episode with its derived seed) and skipped when its output
@@ -62,3 +67,32 @@ if [ ! -f "$OUT/screen.csv" ]; then
     --out "$OUT/screen.csv"
 fi
 echo "navigation-screen: $TASK: auto's strategy $STRATEGY; $OUT/screen.csv"
+
+# The hazards lidar's columns (Safety-Gymnasium's obs_space_dict order).
+case "$TASK" in
+  SafetyPointGoal1-v0) HAZARDS=28:44 ;;
+  SafetyCarGoal1-v0) HAZARDS=34:50 ;;
+  *) echo "navigation-screen: no hazards columns known for $TASK" >&2; exit 2 ;;
+esac
+FEAT=$OUT/features
+mkdir -p "$FEAT"
+for kind in hlidar hmax; do
+  opt=(--columns "$HAZARDS")
+  [ "$kind" = hmax ] && opt=(--max-of "$HAZARDS")
+  # The copies are .npz (not committed); the CSV files are.
+  for part in demos ppolag-s1/episodes; do
+    name=$(basename "$part")
+    [ -f "$FEAT/$kind-$name.npz" ] ||
+      "${RUN[@]}" "$PY" tools/navigation_features.py "${opt[@]}" --in "$OUT/$part.npz" --out "$FEAT/$kind-$name.npz"
+  done
+  [ -f "$FEAT/$kind-selection.csv" ] ||
+    "${RUN[@]}" "$DEFENDER" select --demos "$FEAT/$kind-demos.npz" --no-equal --scaling auto --out "$FEAT/$kind-selection.csv"
+  chosen=$(awk -F, 'NR == 2 { print $2 }' "$FEAT/$kind-selection.csv")
+  [ -f "$FEAT/$kind-screen.csv" ] ||
+    "${RUN[@]}" "$DEFENDER" screen --demos "$FEAT/$kind-demos.npz" --episodes "$FEAT/$kind-episodes.npz" \
+      --strategy "$chosen" --scaling none --scaling zscore \
+      --variant '' --variant 'own_episodes = { keep = 50 }' --variant $'margin = 0.02\nown_episodes = { keep = 50 }' \
+      --out "$FEAT/$kind-screen.csv"
+done
+
+"${RUN[@]}" "$PY" tools/navigation_summary.py --task-dir "$OUT" --hazards "$HAZARDS" --out "$OUT/summary.json"
