@@ -1,14 +1,16 @@
 //! The evaluation line of `defender train`'s closing summary: the mean of the last
 //! [`LAST_EVALUATIONS`] evaluations (the report's "last-10" figure; one evaluation alone is
-//! noisy), their cost where the task has one, and for a run with a filter the same episodes with
+//! noisy), their cost (on a crash task, where the cost is the crash, the share of episodes that
+//! crashed), and for a run with a filter the same episodes with
 //! the filter kept, so the two halves of a DEFENDER run (the policy alone, the policy with its
 //! shield) show at the end of every run and not only in `defender report`.
 
 use defender_report::LAST_EVALUATIONS;
 use defender_rl::EvalRecord;
 
-/// `None` before the first evaluation.
-pub fn eval_line(evals: &[EvalRecord]) -> Option<String> {
+/// `None` before the first evaluation. `cost_limit`: the task's episode cost limit (a cost task),
+/// `None` on a crash task.
+pub fn eval_line(evals: &[EvalRecord], cost_limit: Option<f64>) -> Option<String> {
     let last = &evals[evals.len().saturating_sub(LAST_EVALUATIONS)..];
     if last.is_empty() {
         return None;
@@ -27,15 +29,20 @@ pub fn eval_line(evals: &[EvalRecord]) -> Option<String> {
         evals.len(),
         mean(&|r| Some(r.mean_return)).unwrap_or(f64::NAN)
     );
-    if let Some(cost) = mean(&|r| r.mean_cost) {
-        line += &format!(", cost {cost:.1}");
+    let cost = |c: f64| match cost_limit {
+        Some(limit) => format!("cost {c:.1} (limit {limit})"),
+        None => format!("crashed {:.0}%", 100.0 * c),
+    };
+    if let Some(c) = mean(&|r| r.mean_cost) {
+        line += &format!(", {}", cost(c));
     }
     let shield = |f: fn(&defender_rl::ShieldedEval) -> f64| mean(&|r: &EvalRecord| r.shield.as_ref().map(f));
-    if let (Some(ret), Some(cost), Some(ended)) =
+    if let (Some(ret), Some(c), Some(ended)) =
         (shield(|s| s.mean_return), shield(|s| s.mean_cost), shield(|s| s.filtered))
     {
         line += &format!(
-            "; with the filter kept: return {ret:.1}, cost {cost:.1}, {:.0}% of episodes ended by it",
+            "; with the filter kept: return {ret:.1}, {}, {:.0}% of episodes ended by it",
+            cost(c),
             100.0 * ended
         );
     }
@@ -71,7 +78,7 @@ mod tests {
 
     #[test]
     fn no_line_before_the_first_evaluation() {
-        assert_eq!(eval_line(&[]), None);
+        assert_eq!(eval_line(&[], None), None);
     }
 
     #[test]
@@ -90,15 +97,25 @@ mod tests {
             })
             .collect();
         assert_eq!(
-            eval_line(&evals).unwrap(),
-            "evaluation (mean of the last 10 of 12): return 106.5, cost 30.0; \
-             with the filter kept: return 50.0, cost 5.0, 30% of episodes ended by it"
+            eval_line(&evals, Some(25.0)).unwrap(),
+            "evaluation (mean of the last 10 of 12): return 106.5, cost 30.0 (limit 25); \
+             with the filter kept: return 50.0, cost 5.0 (limit 25), 30% of episodes ended by it"
         );
     }
 
     #[test]
     fn a_run_without_a_filter_or_costs_shows_the_return_alone() {
         let evals = [record(1000, 12.0, None, None)];
-        assert_eq!(eval_line(&evals).unwrap(), "evaluation (the last evaluation of 1): return 12.0");
+        assert_eq!(eval_line(&evals, None).unwrap(), "evaluation (the last evaluation of 1): return 12.0");
+    }
+
+    #[test]
+    fn a_crash_tasks_cost_is_the_share_of_episodes_that_crashed() {
+        let evals = [record(1000, 12.0, Some(0.8), Some((10.0, 0.0, 0.6)))];
+        assert_eq!(
+            eval_line(&evals, None).unwrap(),
+            "evaluation (the last evaluation of 1): return 12.0, crashed 80%; \
+             with the filter kept: return 10.0, crashed 0%, 60% of episodes ended by it"
+        );
     }
 }

@@ -404,7 +404,7 @@ fn print_summary(out: &Path, s: &Summary, config: &RunConfig, evals: &[EvalRecor
         s.steps_per_second,
         s.wall_seconds
     );
-    if let Some(line) = eval_line(evals) {
+    if let Some(line) = eval_line(evals, s.episode_cost_limit) {
         say!("{line}");
     }
     if stopped {
