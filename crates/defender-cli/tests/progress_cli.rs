@@ -93,6 +93,7 @@ fn a_sweep_reports_each_finished_run_by_its_summary() {
     assert_eq!(complete.len(), 2, "{stderr}");
     for line in complete {
         assert!(line.contains("1500 steps") && line.contains("Acc Reward"), "{line}");
+        assert!(line.contains("; evaluation (mean of the last"), "the evaluations follow: {line}");
         assert!(!line.contains("run directory:"), "{line}");
     }
 }

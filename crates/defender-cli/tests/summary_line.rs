@@ -21,7 +21,9 @@ fn summary_line(env: &str, seed: &str, out: &Path, extra: &[&str]) -> String {
     let said = ok(&args);
     let lines: Vec<&str> = said.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
     let at = lines.iter().position(|l| l.starts_with("run directory:")).expect(&said);
-    lines[at - 1].to_string()
+    // The summary, then the evaluations' line (the final evaluation at least), then the directory.
+    assert!(lines[at - 1].starts_with("evaluation (the last evaluation of 1): return "), "{said}");
+    lines[at - 2].to_string()
 }
 
 /// A Recovery RL configuration whose pretraining is short and whose networks are small.

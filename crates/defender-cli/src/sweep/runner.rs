@@ -94,16 +94,23 @@ fn log_tail(path: &Path) -> String {
     lines[lines.len().saturating_sub(5)..].join("\n")
 }
 
-/// The run's one-line summary (`... steps, ... episodes, Acc Reward ...`): the log's last line that
-/// is neither a progress line nor the closing `run directory:` line.
+/// The run's summary: its one-line summary (`... steps, ... episodes, Acc Reward ...`), the log's
+/// last line that is not a progress line, the closing `run directory:` line or the evaluation
+/// line, followed by that evaluation line (`evaluation (mean of the last 10 ...`) when the run
+/// printed one after it.
 fn summary_line(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap_or_default();
-    text.lines()
-        .rev()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with("run directory:") && !l.starts_with("progress:"))
-        .unwrap_or("")
-        .to_string()
+    let lines: Vec<&str> = text.lines().map(str::trim).collect();
+    let is_eval = |l: &str| l.starts_with("evaluation (");
+    let Some(at) = lines.iter().rposition(|l| {
+        !l.is_empty() && !l.starts_with("run directory:") && !l.starts_with("progress:") && !is_eval(l)
+    }) else {
+        return String::new();
+    };
+    match lines.get(at + 1).filter(|l| is_eval(l)) {
+        Some(eval) => format!("{}; {eval}", lines[at]),
+        None => lines[at].to_string(),
+    }
 }
 
 fn spawn(binary: &Path, root: &Path, run: &PlannedRun, state: RunState) -> Result<Running> {
