@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 import sys
 
@@ -47,7 +46,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from navigation_episodes import CostLabelledEpisodes  # noqa: E402 (tools/ beside this file)
-from omnisafe_run_dir import write_atomic  # noqa: E402
+from omnisafe_run_dir import write_json  # noqa: E402
 from omnisafe_saclag import Recorder, hook_episodes, versions  # noqa: E402
 
 TASKS = ("SafetyPointGoal1-v0", "SafetyCarGoal1-v0")
@@ -192,10 +191,6 @@ def main(argv: list[str] | None = None) -> int:
         f"episodes {training.counts} -> {out}"
     )
     return 0
-
-
-def write_json(path: str, value: dict) -> None:
-    write_atomic(path, json.dumps(value, indent=2) + "\n")
 
 
 if __name__ == "__main__":

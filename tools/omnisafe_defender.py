@@ -39,13 +39,12 @@ set; --strategy MinBothW5/MinBothW10 (what it chose there) starts at once.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from importlib import metadata
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from omnisafe_run_dir import write_atomic  # noqa: E402 (tools/ beside this file)
+from omnisafe_run_dir import write_json  # noqa: E402 (tools/ beside this file)
 from omnisafe_saclag import EpisodeCsv, Recorder, hook_episodes, versions  # noqa: E402
 
 ALGOS = {"SACLag": 2000, "PPOLag": 20000}  # OmniSafe 0.5.0's steps_per_epoch for each
@@ -174,10 +173,6 @@ def main(argv: list[str] | None = None) -> int:
         f"cost {float(ep_cost):.1f}, length {float(ep_len):.0f} -> {out}"
     )
     return 0
-
-
-def write_json(path: str, value: dict) -> None:
-    write_atomic(path, json.dumps(value, indent=2) + "\n")
 
 
 if __name__ == "__main__":

@@ -75,20 +75,13 @@ import numpy as np
 import torch
 
 from omnisafe.envs.core import CMDP, Wrapper, env_register
+from omnisafe_saclag import VELOCITY_TASKS  # tools/ on sys.path, as this module itself
 
 PREFIX = "Defender-"
 
+NAVIGATION_TASKS = ("SafetyPointGoal1-v0", "SafetyCarGoal1-v0")
 #: Safety-Gymnasium's velocity tasks (data/demos/ ships sets for Hopper, Walker2d and HalfCheetah;
 #: the others need `demos=`) and the two navigation tasks of issue 50 (`demos=` needed).
-VELOCITY_TASKS = (
-    "SafetyHopperVelocity-v1",
-    "SafetyWalker2dVelocity-v1",
-    "SafetyHalfCheetahVelocity-v1",
-    "SafetyAntVelocity-v1",
-    "SafetyHumanoidVelocity-v1",
-    "SafetySwimmerVelocity-v1",
-)
-NAVIGATION_TASKS = ("SafetyPointGoal1-v0", "SafetyCarGoal1-v0")
 TASKS = VELOCITY_TASKS + NAVIGATION_TASKS
 
 #: The per-episode cost limit of the field's benchmarks (Safety-Gymnasium's, OmniSafe's): 25.

@@ -55,6 +55,10 @@ def write_atomic(path: str, text: str) -> None:
     os.replace(tmp, path)
 
 
+def write_json(path: str, value: dict) -> None:
+    write_atomic(path, json.dumps(value, indent=2) + "\n")
+
+
 def read_rows(path: str, columns: list[str]) -> list[dict[str, float]]:
     """The rows of a CSV file, every one of `columns` a finite number."""
     if not os.path.exists(path):
@@ -175,7 +179,7 @@ def convert(out: str, eval_every: int) -> dict:
     write_atomic(os.path.join(out, "metrics.csv"), "\n".join(metrics) + "\n")
     write_atomic(os.path.join(out, "eval.csv"), "\n".join(evals) + "\n")
     write_atomic(os.path.join(out, "config.toml"), config)
-    write_atomic(os.path.join(out, "summary.json"), json.dumps(summary, indent=2) + "\n")
+    write_json(os.path.join(out, "summary.json"), summary)
     return summary
 
 

@@ -60,7 +60,7 @@ import time
 from importlib import metadata
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from omnisafe_run_dir import convert, write_atomic  # noqa: E402 (tools/ beside this file)
+from omnisafe_run_dir import convert, write_json  # noqa: E402 (tools/ beside this file)
 
 EPISODE_HEADER = ["episode", "total_steps", "return", "length", "cost", "wall_seconds"]
 EVAL_HEADER = ["total_steps", "return", "length", "cost", "wall_seconds"]
@@ -379,10 +379,6 @@ def read_previous(out: str) -> dict | str | None:
     except (OSError, ValueError) as e:
         return f"{path}: unreadable ({e})"
     return previous if isinstance(previous, dict) else f"{path}: not a JSON object"
-
-
-def write_json(path: str, value: dict) -> None:
-    write_atomic(path, json.dumps(value, indent=2) + "\n")
 
 
 if __name__ == "__main__":

@@ -214,26 +214,31 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
         // bare curve is black (colour 0), and without one the palette starts at 1.
         let bare_first = by_filter.keys().next().is_some_and(|k| !k.0);
         let color_of = |i: usize| i + usize::from(!bare_first);
-        // One band per configuration of the curve `curve` gives each seed, on `grid`.
-        let bands_of =
-            |curve: &dyn Fn(&Run) -> Curve, grid: Grid, name: &str, why: &str, notes: &mut Vec<String>| {
-                let mut bands = Vec::new();
-                for (i, (key, seeds)) in by_filter.iter().enumerate() {
-                    // A shielded curve exists only where there is a filter to keep.
-                    if name.starts_with("shield") && !key.0 {
-                        continue;
-                    }
-                    let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r)).collect();
-                    let label = label(*key, seeds.len());
-                    match band(&curves, grid) {
-                        Some((xs, mean, lo, hi)) => {
-                            bands.push(Band { label, color: color_of(i), xs, mean, lo, hi });
-                        }
-                        None => notes.push(format!("{stem}_{name}: {label}: {why}; not drawn")),
-                    }
+        // One band per configuration (with a filter only, if `filtered_only`: a shielded curve
+        // exists only where there is a filter to keep) of the curve `curve` gives each seed, on
+        // `grid`.
+        let bands_of = |curve: &dyn Fn(&Run) -> Curve,
+                        grid: Grid,
+                        name: &str,
+                        why: &str,
+                        filtered_only: bool,
+                        notes: &mut Vec<String>| {
+            let mut bands = Vec::new();
+            for (i, (key, seeds)) in by_filter.iter().enumerate() {
+                if filtered_only && !key.0 {
+                    continue;
                 }
-                bands
-            };
+                let curves: Vec<(Vec<f64>, Vec<f64>)> = seeds.iter().map(|r| curve(r)).collect();
+                let label = label(*key, seeds.len());
+                match band(&curves, grid) {
+                    Some((xs, mean, lo, hi)) => {
+                        bands.push(Band { label, color: color_of(i), xs, mean, lo, hi });
+                    }
+                    None => notes.push(format!("{stem}_{name}: {label}: {why}; not drawn")),
+                }
+            }
+            bands
+        };
         let mut eval_chart = None;
         let limit = options.cost_limits.of_runs(env, by_filter.values().flatten().copied());
         for kind in PlotKind::ALL {
@@ -260,7 +265,14 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
                 }
                 _ => format!("the seeds' {name} share no step range"),
             };
-            let bands = bands_of(&|r| curve(r, kind, options), grid, name, &why, &mut plots.notes);
+            let bands = bands_of(
+                &|r| curve(r, kind, options),
+                grid,
+                name,
+                &why,
+                kind.is_shielded(),
+                &mut plots.notes,
+            );
             if bands.is_empty() {
                 continue;
             }
@@ -296,6 +308,7 @@ pub fn draw_plots(runs: &[Run], dir: impl AsRef<Path>, options: &PlotOptions) ->
             Grid::Linear(options.grid_points),
             name,
             &format!("a seed ends before its first window of {window} steps"),
+            false,
             &mut plots.notes,
         );
         if let (false, Some(mut eval)) = (bands.is_empty(), eval_chart) {
