@@ -13,7 +13,8 @@ use crate::table::Table;
 /// `episode_cost_limit` on, are empty for a task without an episode cost limit: the crash tasks).
 /// The shielded evaluation's columns (`shield_*`) are empty for a row without one (a bare row);
 /// its cost, `shield_eval_cost_last10_*`, is given on the tasks with a cost limit, as the
-/// evaluation cost is.
+/// evaluation cost is. `crashes_after_warmup_*` is empty for a row none of whose runs gives its
+/// warm-up (a peer library's run).
 pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
 n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
@@ -28,7 +29,8 @@ over_limit_mean,over_limit_std,over_limit_ci_lo,over_limit_ci_hi,\
 over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi,\
 shield_eval_last10_mean,shield_eval_last10_std,shield_eval_last10_ci_lo,shield_eval_last10_ci_hi,\
 shield_ended_pct_mean,shield_ended_pct_std,shield_ended_pct_ci_lo,shield_ended_pct_ci_hi,\
-shield_eval_cost_last10_mean,shield_eval_cost_last10_std,shield_eval_cost_last10_ci_lo,shield_eval_cost_last10_ci_hi";
+shield_eval_cost_last10_mean,shield_eval_cost_last10_std,shield_eval_cost_last10_ci_lo,shield_eval_cost_last10_ci_hi,\
+crashes_after_warmup_mean,crashes_after_warmup_std,crashes_after_warmup_ci_lo,crashes_after_warmup_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -109,6 +111,8 @@ pub(crate) fn csv(table: &Table) -> String {
             fields.extend(mean_std(e));
             fields.extend(interval(e));
         }
+        fields.extend(mean_std(row.crashes_after_warmup.as_ref()));
+        fields.extend(interval(row.crashes_after_warmup.as_ref()));
         let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
         out.push_str(&fields.join(","));
         out.push('\n');

@@ -14,6 +14,9 @@ pub(crate) struct RawAgent {
     demos_in_replay: Option<bool>,
     #[serde(default)]
     bc_weight: Option<f64>,
+    /// The learner's random warm-up, in training steps.
+    #[serde(default)]
+    pub(crate) learning_starts: Option<u64>,
 }
 
 /// A row's algorithm label as tables and plots print it: the algorithm in capitals, what sets

@@ -18,7 +18,10 @@ policy, 10 episodes). Best episode (paper's Acc Reward): the best single trainin
 of the run, filtered episodes included (what the paper's code reports as Acc Reward). Last-10 \
 eval: mean return of the run's last 10 evaluations (all of them if it has fewer). % Crash: \
 crashed / all training episodes x 100 (the paper's measure: the episodes the filter ends join its \
-denominator). Crashes: crashed training episodes over the run. Crashes / 1k env steps: crashes / \
+denominator). Crashes: crashed training episodes over the run. Crashes after warm-up: those \
+ending after the learner's random warm-up (`learning_starts` training steps, 5,000 by default), \
+which no baseline's learner chooses (a filter acts from the first step); - for a run whose \
+configuration does not give it. Crashes / 1k env steps: crashes / \
 environment steps of training x 1000, a filtered step not counting (it never reaches the \
 environment). Standing %: evaluations in which the agent stood still \
 (every episode lasted the task's horizon, 1000 steps, and the mean return is within 10% of the \
@@ -76,13 +79,19 @@ pub(crate) fn markdown(table: &Table) -> String {
             // The evaluations with the filter kept sit beside the unfiltered ones, when a row
             // (a DEFENDER run) has them.
             let shielded = rows().any(|r| r.shield.is_some());
+            // Crashes after the learner's warm-up, when a row's runs say how long it was.
+            let warmup = rows().any(|r| r.crashes_after_warmup.is_some());
             let over = limit.map(|l| format!("Episodes cost > {l}")).unwrap_or_default();
             let over_pct = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
             header.extend(["Acc Reward (final eval)", "Best episode (paper's Acc Reward)", "Last-10 eval"]);
             if shielded {
                 header.extend(["Shielded eval (last-10)", "% Shield-ended"]);
             }
-            header.extend(["% Crash", "Crashes", "Crashes / 1k env steps"]);
+            header.extend(["% Crash", "Crashes"]);
+            if warmup {
+                header.push("Crashes after warm-up");
+            }
+            header.push("Crashes / 1k env steps");
             if limit.is_some() {
                 header.extend(["Cost rate", "Eval cost (last-10)"]);
                 if shielded {
@@ -113,11 +122,11 @@ pub(crate) fn markdown(table: &Table) -> String {
                         pm_ci_or_dash(shield.map(|s| &s.ended_pct), 1),
                     ]);
                 }
-                line.extend([
-                    pm_ci(&row.crash_pct, 1),
-                    pm_ci(&row.crashes, 0),
-                    pm_ci(&row.crashes_per_1k, 2),
-                ]);
+                line.extend([pm_ci(&row.crash_pct, 1), pm_ci(&row.crashes, 0)]);
+                if warmup {
+                    line.push(pm_ci_or_dash(row.crashes_after_warmup.as_ref(), 0));
+                }
+                line.push(pm_ci(&row.crashes_per_1k, 2));
                 if limit.is_some() {
                     let costs = row.costs.as_ref();
                     line.extend([

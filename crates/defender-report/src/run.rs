@@ -110,6 +110,9 @@ pub struct RunSettings {
     pub budget: Budget,
     /// `None` for a bare run.
     pub filter: Option<DefenderSettings>,
+    /// The learner's random warm-up in training steps (`learning_starts` of `[sac]` or `[td3]`);
+    /// `None` for a run whose configuration does not say (a peer library's run).
+    pub warmup_steps: Option<u64>,
 }
 
 /// `summary.json`: written by `defender train` (early with `complete: false`, then after every
@@ -346,6 +349,15 @@ impl Run {
         self.episodes.iter().filter(|e| e.outcome == Outcome::Crashed).count()
     }
 
+    /// Training episodes that crashed after the learner's random warm-up (ending after its
+    /// `learning_starts` training steps): the crashes a learner's own choices caused, which a
+    /// baseline acting through its learner can only affect from then on (a filter acts from the
+    /// first step). `None` when the configuration does not give the warm-up.
+    pub fn crashed_after_warmup(&self) -> Option<usize> {
+        let warmup = self.config.warmup_steps?;
+        Some(self.episodes.iter().filter(|e| e.outcome == Outcome::Crashed && e.total_steps > warmup).count())
+    }
+
     /// Cross-checks the four files.
     fn check(&self) -> Result<()> {
         let (c, s) = (&self.config, &self.summary);
@@ -554,7 +566,8 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
             })
         }
     };
-    Ok(RunSettings { env: raw.env, algo, seed: raw.seed, budget, filter })
+    let warmup_steps = raw.sac.as_ref().or(raw.td3.as_ref()).and_then(|a| a.learning_starts);
+    Ok(RunSettings { env: raw.env, algo, seed: raw.seed, budget, filter, warmup_steps })
 }
 
 const METRICS_COLUMNS: &[&str] = &["episode", "total_steps", "return", "length", "outcome", "wall_seconds"];

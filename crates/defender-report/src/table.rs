@@ -38,6 +38,10 @@ pub struct Row {
     pub crash_pct: Estimate,
     /// Crashes: crashed training episodes over the run (the field's count).
     pub crashes: Estimate,
+    /// Crashes after the warm-up: crashed training episodes ending after the learner's random
+    /// warm-up ([`Run::crashed_after_warmup`]), over the seeds whose configuration gives it;
+    /// `None` when none does.
+    pub crashes_after_warmup: Option<Estimate>,
     /// Crashes per 1,000 environment steps of training (filtered steps are not environment
     /// steps: crate::violations).
     pub crashes_per_1k: Estimate,
@@ -186,6 +190,7 @@ impl Table {
                 last_evaluations,
                 crash_pct,
                 crashes,
+                crashes_after_warmup: Estimate::of(&some(&|r| r.crashed_after_warmup().map(|n| n as f64))),
                 crashes_per_1k,
                 standing_pct: Estimate::of(&some(&|r| r.standing_pct())),
                 filtered_pct,

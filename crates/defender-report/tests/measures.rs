@@ -218,3 +218,45 @@ fn crashes_are_counted_over_the_run_and_per_environment_step_without_filtered_st
     assert_eq!(col("crash_pct_mean"), "30");
     assert!(render(&table, Format::Markdown).contains("Crashes / 1k env steps"));
 }
+
+#[test]
+fn crashes_after_the_warm_up_count_the_crashed_episodes_ending_after_learning_starts() {
+    let root = tempfile::tempdir().unwrap();
+    // Episodes of 100 steps ending at 100, 200, ...: seed 0 crashes in its first 5 of 8 and
+    // warms up for 250 steps, so the episodes ending at 300, 400 and 500 count (3); seed 1
+    // crashes in its first 2, both within a warm-up of 200 (an episode ending at it is inside).
+    let s0 = RunSpec::new("sac", 0, None).outcomes(8, 5, 0).warmup(250).write(root.path());
+    let s1 = RunSpec::new("sac", 1, None).outcomes(8, 2, 0).warmup(200).write(root.path());
+    assert_eq!(load(&s0).crashed_after_warmup(), Some(3));
+    assert_eq!(load(&s1).crashed_after_warmup(), Some(0));
+    let peer = RunSpec::new("td3", 0, None).outcomes(8, 5, 0).write(root.path());
+    assert_eq!(load(&peer).crashed_after_warmup(), None, "a configuration without the warm-up");
+
+    let table = Table::from_runs(&load_runs(&[root.path()]).unwrap().runs);
+    let sac = table.rows.iter().find(|r| r.algo == "sac").unwrap();
+    let after = sac.crashes_after_warmup.unwrap();
+    assert_eq!((after.stat.mean, after.stat.n), (1.5, 2));
+    assert_eq!(sac.crashes.stat.mean, 3.5, "all crashes, the warm-up's included");
+    assert!(table.rows.iter().find(|r| r.algo == "td3").unwrap().crashes_after_warmup.is_none());
+
+    let md = render(&table, Format::Markdown);
+    let cells = |prefix: &str| -> Vec<String> {
+        let line = md.lines().find(|l| l.starts_with(prefix)).unwrap();
+        line.split('|').map(str::trim).filter(|c| !c.is_empty()).map(String::from).collect()
+    };
+    let header = cells("| Algorithm");
+    let at = header.iter().position(|h| h == "Crashes after warm-up").unwrap();
+    assert_eq!(header[at - 1], "Crashes", "{md}");
+    assert_eq!(cells("| SAC")[at], "2 ± 1.5 [0, 3]", "{md}");
+    assert_eq!(cells("| TD3")[at], "-", "{md}");
+    let csv = render(&table, Format::Csv);
+    let header: Vec<&str> = CSV_HEADER.split(',').collect();
+    let col = |algo: &str, name: &str| -> String {
+        let row: Vec<&str> =
+            csv.lines().find(|l| l.split(',').nth(1) == Some(algo)).unwrap().split(',').collect();
+        row[header.iter().position(|h| *h == name).unwrap()].to_string()
+    };
+    assert_eq!(col("sac", "crashes_after_warmup_mean"), "1.5");
+    assert_eq!(col("sac", "crashes_after_warmup_ci_hi"), "3");
+    assert_eq!(col("td3", "crashes_after_warmup_mean"), "");
+}

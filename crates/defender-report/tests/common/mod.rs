@@ -35,6 +35,9 @@ pub struct RunSpec {
     /// The shielded evaluations `(mean_return, mean_cost, filtered)`, one per evaluation, written
     /// as `eval.csv`'s `shield_*` columns (after `mean_cost`, empty when `eval_costs` is `None`).
     pub shield: Option<Vec<(f64, f64, f64)>>,
+    /// Written as `[<algo>] learning_starts`, the learner's random warm-up; `None`: no such table
+    /// (the agent's settings under `[algo_config]`, as a peer's converted run has none).
+    pub warmup: Option<u64>,
 }
 
 impl RunSpec {
@@ -53,7 +56,14 @@ impl RunSpec {
             eval_costs: None,
             cost_limit: None,
             shield: None,
+            warmup: None,
         }
+    }
+
+    /// The learner's random warm-up in training steps (`[<algo>] learning_starts`).
+    pub fn warmup(mut self, steps: u64) -> Self {
+        self.warmup = Some(steps);
+        self
     }
 
     /// The task, e.g. `SafetyHopperVelocity-v1`.
@@ -156,6 +166,9 @@ impl RunSpec {
             .unwrap();
         }
         config.push_str("\n[algo_config]\nlearning_rate = 0.0003\nbatch_size = 256\n");
+        if let Some(steps) = self.warmup {
+            write!(config, "\n[{}]\nlearning_starts = {steps}\n", self.algo).unwrap();
+        }
         std::fs::write(dir.join("config.toml"), config).unwrap();
 
         let mut metrics = String::from("episode,total_steps,return,length,outcome,wall_seconds");
