@@ -51,7 +51,6 @@ fn velocity_arms_name_complete_runs_of_their_task() {
         "lagrangian",
         "pid",
         "defender-limit",
-        "defender-limit-pid",
     ];
     check("results/velocity/arms.txt", &arms);
 }
