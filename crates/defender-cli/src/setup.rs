@@ -278,8 +278,11 @@ impl TrainingRecorder {
         })
     }
 
-    /// Records one step.
-    pub fn transition(&mut self, t: &Transition<'_>, env_action: &[f64]) -> Result<()> {
+    /// Records one step. `task_cost` is the step's cost to the task: the episode is labelled by
+    /// it, as `metrics.csv`'s cost counts, not by `t.cost`, which holds a filtered step's charge
+    /// to the learner (`filtered_cost = "violation"`): the filter prevented that violation, so
+    /// the episode it ended is recorded safe, as a filtered episode on a crash task is.
+    pub fn transition(&mut self, t: &Transition<'_>, env_action: &[f64], task_cost: f64) -> Result<()> {
         if !self.started {
             self.recorder.start(t.obs);
             self.violation.reset();
@@ -288,7 +291,7 @@ impl TrainingRecorder {
         if !self.violation.violated() {
             self.recorder.step(env_action, t.reward, t.next_obs)?;
         }
-        self.violation.step(t.cost, t.terminated);
+        self.violation.step(task_cost, t.terminated);
         Ok(())
     }
 
@@ -327,5 +330,66 @@ impl TrainingRecorder {
         }
         self.started = false;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Feeds one episode of `costs.len()` steps to `recorder`: step `k` costs the task `costs[k]`,
+    /// and the learner is charged `charge` on the last step (a filtered step's charge).
+    fn episode(recorder: &mut TrainingRecorder, costs: &[f64], charge: f64, filtered: bool) {
+        let (obs, next, action) = ([0.5f64, -0.5], [0.25f64, 0.0], [0.1f32]);
+        for (k, &cost) in costs.iter().enumerate() {
+            let last = k + 1 == costs.len();
+            let charged = if last { charge } else { 0.0 };
+            let t = Transition {
+                obs: &obs,
+                action: &action,
+                reward: 1.0,
+                cost: cost + charged,
+                next_obs: &next,
+                terminated: false,
+                truncated: last && !filtered,
+            };
+            recorder.transition(&t, &[0.1], cost).unwrap();
+        }
+        let record = EpisodeRecord {
+            episode: 0,
+            total_steps: costs.len() as u64,
+            episode_return: costs.len() as f64,
+            cost: Some(costs.iter().sum()),
+            length: costs.len() as u64,
+            terminated: false,
+            truncated: !filtered,
+            filtered,
+            unstable: false,
+            wall_seconds: 1.0,
+        };
+        recorder.end_episode(&record).unwrap();
+    }
+
+    #[test]
+    fn a_cost_task_records_an_episode_unsafe_up_to_the_step_that_passes_the_limit() {
+        let mut recorder = TrainingRecorder::new("SafetyHopperVelocity-v1", 2, 1, "test".into()).unwrap();
+        // 30 steps costing 1: the 26th passes 25, so 26 steps are kept, unsafe.
+        episode(&mut recorder, &[1.0; 30], 0.0, false);
+        // 25 steps costing 1, then 5 free: a cost of 25 does not pass 25: safe, whole.
+        let mut at_limit = vec![1.0; 25];
+        at_limit.extend([0.0; 5]);
+        episode(&mut recorder, &at_limit, 0.0, false);
+        // The filter ends an episode at its 10th step, charging the learner 26 for the violation
+        // it prevented: the task paid 9, so the episode is safe, as metrics.csv counts it.
+        episode(&mut recorder, &[1.0; 10][..], 26.0, true);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("episodes.npz");
+        recorder.save(&path).unwrap();
+        let set = EpisodeSet::load(&path).unwrap();
+        assert_eq!(set.meta().extra[defender::EPISODE_COST_LIMIT_KEY], serde_json::json!(25.0));
+        let unsafe_: Vec<usize> = set.unsafe_().map(|e| e.len()).collect();
+        let safe: Vec<usize> = set.safe().map(|e| e.len()).collect();
+        assert_eq!(unsafe_, [26]);
+        assert_eq!(safe, [30, 10]);
     }
 }

@@ -187,10 +187,13 @@ pub trait Hooks {
         let _ = total_steps;
     }
 
-    /// After every environment step, with the transition as the agent stored it and the action
-    /// as the environment received it (rescaled to its bounds): for recording episodes.
-    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64]) {
-        let _ = (transition, env_action);
+    /// After every environment step, with the transition as the agent stored it, the action as
+    /// the environment received it (rescaled to its bounds) and the step's cost to the task
+    /// ([`crate::Step::cost`]; `transition.cost` adds any cost a wrapper charged the learner, such
+    /// as DEFENDER's for a filtered step): for recording episodes, which are labelled by the
+    /// task's cost as the episode records are.
+    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64], task_cost: f64) {
+        let _ = (transition, env_action, task_cost);
     }
 
     /// After each finished training episode and its record, with the agent: for work that needs
@@ -530,7 +533,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                     truncated: step.truncated,
                 };
                 self.agent.observe(&transition)?;
-                hooks.on_transition(&transition, &env_action);
+                hooks.on_transition(&transition, &env_action, step.cost);
                 if let Some(stats) = self.agent.update()? {
                     hooks.on_update(self.state.total_steps, &stats);
                 }

@@ -99,7 +99,7 @@ fn records_outcomes_lengths_and_returns() {
 struct LearnedCost(f64);
 
 impl defender_rl::Hooks for LearnedCost {
-    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64]) {
+    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64], _task_cost: f64) {
         self.0 += t.cost;
     }
 }

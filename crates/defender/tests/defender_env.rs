@@ -286,7 +286,7 @@ struct AgentLog {
 }
 
 impl defender_rl::Hooks for AgentLog {
-    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64]) {
+    fn on_transition(&mut self, t: &defender_rl::Transition<'_>, _env_action: &[f64], _task_cost: f64) {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         self.transitions.push((
             bits(t.obs),

@@ -563,10 +563,10 @@ impl Hooks for TrainHooks {
         }
     }
 
-    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64]) {
+    fn on_transition(&mut self, transition: &Transition<'_>, env_action: &[f64], task_cost: f64) {
         if let (Some(recorder), None) = (&mut self.recorder, &self.error) {
             // Hooks of a step cannot fail; the error stops the run at the episode's end.
-            self.error = recorder.transition(transition, env_action).err();
+            self.error = recorder.transition(transition, env_action, task_cost).err();
         }
     }
 
