@@ -5,7 +5,8 @@ The rules are docs/decisions-baselines.md ("The second screen of the baselines' 
 and docs/decisions-velocity.md ("The screen", issue 49), each written before its runs. This only
 reads run directories (metrics.csv, eval.csv, config.toml); it trains nothing.
 
-  python3 tools/screen_rule.py baselines results/screen-baselines --bare results/keeps-learning
+  python3 tools/screen_rule.py baselines results/screen-baselines results/screen-baselines-recovery \
+      --bare results/keeps-learning
   python3 tools/screen_rule.py velocity results/velocity-limit-screen
 
 A run directory is TASK/NAME-sSEED; a setting is NAME without its seed. The budget is read from
@@ -68,10 +69,13 @@ def cost_rate(run: Path, steps: int) -> float:
     return cost / env_steps
 
 
-def settings(root: Path) -> dict[str, dict[str, list[Path]]]:
-    """task -> setting -> its run directories."""
+def settings(*roots: Path) -> dict[str, dict[str, list[Path]]]:
+    """task -> setting -> its run directories, over the screen's directories (one sweep's each)."""
     out: dict[str, dict[str, list[Path]]] = {}
-    for run in sorted(root.glob("*/*-s[0-9]*")):
+    for root in roots:
+        if not root.is_dir():
+            raise SystemExit(f"{root}: not a directory (a screen's sweep directory holds TASK/NAME-sSEED runs)")
+    for run in sorted(run for root in roots for run in root.glob("*/*-s[0-9]*")):
         if not (run / "config.toml").exists():
             continue
         name = re.sub(r"-s\d+$", "", run.name)
@@ -84,7 +88,7 @@ def mean(xs: list[float]) -> float:
 
 
 def baselines(args: argparse.Namespace) -> None:
-    for task, by_setting in settings(Path(args.root)).items():
+    for task, by_setting in settings(*map(Path, args.roots)).items():
         steps = budget(next(iter(by_setting.values()))[0])
         seeds = sorted({int(run.name.rsplit("-s", 1)[1]) for runs in by_setting.values() for run in runs})
         bare_runs = [Path(args.bare) / task / f"sac-bare-s{s}" for s in seeds]
@@ -167,7 +171,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="screen", required=True)
     b = sub.add_parser("baselines", help="issue 48's screen of the baselines' knobs")
-    b.add_argument("root")
+    b.add_argument("roots", nargs="+", help="the screen's sweep directories (TASK/NAME-sSEED runs)")
     b.add_argument("--bare", required=True, help="the directory with TASK/sac-bare-sSEED runs")
     v = sub.add_parser("velocity", help="issue 49's screen of the DEFENDER variants")
     v.add_argument("root")

@@ -56,10 +56,13 @@ def test_the_baselines_rule_counts_crashes_after_the_warm_up_and_reads_the_last_
         "pid-y": (2, 600.0),
     }
     for name, (crashes, ret) in settings.items():
+        # The PID settings in a second sweep directory, as Recovery RL's screen is: one table.
+        root = screen if name.startswith("lag") else tmp_path / "screen2" / "Hopper-v5"
         for seed in (0, 1):
             eps = [(1000, 5, "crashed", 1)] + [(6000 + 1000 * k, 5, "crashed", 1) for k in range(crashes)]
-            make_run(screen / f"sac-bare-{name}-s{seed}", steps, eps, evals(ret))
-    out = run_tool("baselines", str(tmp_path / "screen"), "--bare", str(tmp_path / "bare"))
+            make_run(root / f"sac-bare-{name}-s{seed}", steps, eps, evals(ret))
+    out = run_tool("baselines", str(tmp_path / "screen"), str(tmp_path / "screen2"), "--bare", str(tmp_path / "bare"))
+    assert out.count("### Hopper-v5") == 1, out
     assert "bare SAC 1000 (bar 800), 1 crashes after the warm-up" in out, out
     assert "| sac-bare-lag-a | 2 | 3.0 | 900 | yes |" in out, out
     assert "- lag: **sac-bare-lag-a** (the fewest crashes above the bar" in out, out
