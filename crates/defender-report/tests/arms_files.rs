@@ -36,7 +36,17 @@ fn check(file: &str, arms: &[&str]) {
 
 #[test]
 fn baselines_arms_name_complete_runs_of_their_task() {
-    let arms = ["bare", "penalty", "lagrangian-v1", "recovery-v1", "demos", "defender", "lagrangian", "pid"];
+    let arms = [
+        "bare",
+        "penalty",
+        "penalty-v1",
+        "lagrangian-v1",
+        "recovery-v1",
+        "demos",
+        "defender",
+        "lagrangian",
+        "pid",
+    ];
     let more = ["recovery", "penalty-demos", "recovery-demos", "lagrangian-demos", "pid-demos"];
     check("results/baselines/arms.txt", &[&arms[..], &more[..]].concat());
 }
