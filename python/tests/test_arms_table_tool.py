@@ -1,0 +1,52 @@
+"""tools/arms_table.py: one row per arm of an arms.txt file, from `defender report` on the arm's
+committed runs (results/keeps-learning and results/baselines: real runs, known figures)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+TOOL = ROOT / "tools" / "arms_table.py"
+BARE = " ".join(f"results/keeps-learning/InvertedDoublePendulum-v5/sac-bare-s{s}" for s in range(3))
+
+
+@pytest.fixture(scope="module")
+def binary():
+    exe = ROOT / "target" / "release" / "defender"
+    if not exe.exists():
+        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
+    return exe
+
+
+def run_tool(binary, arms_file):
+    return subprocess.run([sys.executable, str(TOOL), str(arms_file), "--defender", str(binary)],
+                          capture_output=True, text=True)
+
+
+def test_each_arm_is_the_reports_row_of_its_runs(binary, tmp_path):
+    arms = tmp_path / "arms.txt"
+    arms.write_text(f"# a comment\nInvertedDoublePendulum-v5 bare {BARE}\nInvertedDoublePendulum-v5 later\n")
+    done = run_tool(binary, arms)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("| task | arm | seeds | crashes | after warm-up |"), lines[0]
+    # IDP's bare SAC, 3 seeds of 30k steps: 1107 ± 10 crashes, 310 ± 14 after the 5,000-step
+    # warm-up (as `defender report` gives them), last-10 evaluation 6480 ± 259; no filter.
+    assert lines[2] == ("| InvertedDoublePendulum-v5 | bare | 3 | 1107 ± 10 | 310 ± 14 | 36.89 ± 0.33 "
+                        "| 6480 ± 259 | - |"), lines[2]
+    assert lines[3].startswith("| InvertedDoublePendulum-v5 | later | (to run) |"), lines[3]
+    assert "cost rate" not in lines[0], "a crash task has no cost columns"
+
+
+def test_an_arm_whose_runs_differ_in_configuration_is_refused_naming_it(binary, tmp_path):
+    arms = tmp_path / "arms.txt"
+    mixed = ("results/keeps-learning/InvertedDoublePendulum-v5/sac-bare-s0 "
+             "results/baselines/InvertedDoublePendulum-v5/sac-bare-penalty1-s1")
+    arms.write_text(f"InvertedDoublePendulum-v5 mixed {mixed}\n")
+    done = run_tool(binary, arms)
+    assert done.returncode != 0
+    assert "InvertedDoublePendulum-v5 mixed" in done.stderr and "2 rows" in done.stderr, done.stderr

@@ -1,0 +1,105 @@
+#!/usr/bin/env python3
+"""The table of an experiment's arms, one row per task and arm of an `arms.txt` file
+(`TASK ARM DIR...`, e.g. results/baselines/arms.txt), each row `defender report`'s figures for that
+arm's run directories: the same numbers the report gives, named by arm, in one table.
+
+  python3 tools/arms_table.py results/baselines/arms.txt
+  python3 tools/arms_table.py results/velocity/arms.txt --task SafetyHopperVelocity-v1
+
+Each cell is the mean ± std over the arm's seeds (the report's bootstrap intervals are in its own
+tables). An arm listed without directories is shown as still to run. An arm whose runs the report
+puts in more than one row (their configurations differ) is refused, naming it: one arm, one
+configuration. The columns: seeds; crashes (on a velocity task: falls) over the run, after the
+learner's warm-up, and per 1,000 environment steps; the mean of the last 10 evaluations (unfiltered; with the filter kept,
+where the runs have it); on a task with an episode cost limit, the training cost rate and the
+last-10 evaluation cost (both ways).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def defender_binary(given: str | None) -> str:
+    for candidate in (given, shutil.which("defender"), str(ROOT / "target" / "release" / "defender")):
+        if candidate and Path(candidate).exists():
+            return candidate
+    raise SystemExit("no `defender` binary: give --defender PATH, or build it (cargo build --release -p defender-cli)")
+
+
+def read_arms(path: Path) -> list[tuple[str, str, list[str]]]:
+    arms = []
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        words = line.split()
+        if not words or words[0].startswith("#"):
+            continue
+        if len(words) < 2:
+            raise SystemExit(f"{path}:{number}: expected TASK ARM DIR..., found {line!r}")
+        arms.append((words[0], words[1], words[2:]))
+    return arms
+
+
+def report_row(binary: str, dirs: list[str], where: str) -> dict[str, str]:
+    done = subprocess.run([binary, "report", "--strict", "--format", "csv", *dirs], cwd=ROOT,
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{where}: defender report failed:\n{done.stderr}")
+    rows = list(csv.DictReader(io.StringIO(done.stdout)))
+    if len(rows) != 1:
+        labels = ", ".join(r["algo"] for r in rows)
+        raise SystemExit(f"{where}: its runs form {len(rows)} rows of the report ({labels}), not one: "
+                         "an arm's runs must share one configuration")
+    return rows[0]
+
+
+def cell(row: dict[str, str], name: str, decimals: int) -> str:
+    mean, std = row.get(f"{name}_mean", ""), row.get(f"{name}_std", "")
+    if mean == "":
+        return "-"
+    return f"{float(mean):.{decimals}f} ± {float(std):.{decimals}f}"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("arms", type=Path, help="an arms.txt file: TASK ARM DIR... per line")
+    parser.add_argument("--task", action="append", help="only this task (may be repeated)")
+    parser.add_argument("--defender", help="the defender binary (default: on PATH, else target/release)")
+    args = parser.parse_args()
+    binary = defender_binary(args.defender)
+    arms = [a for a in read_arms(args.arms) if not args.task or a[0] in args.task]
+    if not arms:
+        raise SystemExit(f"{args.arms}: no arm" + (f" of {', '.join(args.task)}" if args.task else ""))
+    rows = []
+    for task, arm, dirs in arms:
+        rows.append((task, arm, report_row(binary, dirs, f"{args.arms}: {task} {arm}") if dirs else None))
+    costs = any(r and r.get("episode_cost_limit") for _, _, r in rows)
+    header = ["task", "arm", "seeds", "crashes", "after warm-up", "crashes / 1k env steps", "last-10 eval",
+              "last-10 eval, filter kept"]
+    if costs:
+        header += ["cost rate", "eval cost (last-10)", "eval cost, filter kept"]
+    print("| " + " | ".join(header) + " |")
+    print("| --- | --- | " + " | ".join("---:" for _ in header[2:]) + " |")
+    for task, arm, row in rows:
+        if row is None:
+            print(f"| {task} | {arm} | (to run) |" + " |" * (len(header) - 3))
+            continue
+        cells = [task, arm, row["n_seeds"], cell(row, "crashes", 0), cell(row, "crashes_after_warmup", 0),
+                 cell(row, "crashes_per_1k_env_steps", 2), cell(row, "last10_eval", 0),
+                 cell(row, "shield_eval_last10", 0)]
+        if costs:
+            cells += [cell(row, "cost_rate", 3), cell(row, "eval_cost_last10", 1),
+                      cell(row, "shield_eval_cost_last10", 1)]
+        print("| " + " | ".join(cells) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
