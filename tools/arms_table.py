@@ -60,11 +60,12 @@ def report_row(binary: str, dirs: list[str], where: str) -> dict[str, str]:
     return rows[0]
 
 
-def cell(row: dict[str, str], name: str, decimals: int) -> str:
+def cell(row: dict[str, str], name: str, decimals: int, std_decimals: int = 1) -> str:
+    """`mean ± std` as the report prints it: the std to one decimal unless told."""
     mean, std = row.get(f"{name}_mean", ""), row.get(f"{name}_std", "")
     if mean == "":
         return "-"
-    return f"{float(mean):.{decimals}f} ± {float(std):.{decimals}f}"
+    return f"{float(mean):.{decimals}f} ± {float(std):.{std_decimals}f}"
 
 
 def main() -> int:
@@ -95,7 +96,7 @@ def main() -> int:
                  cell(row, "crashes_per_1k_env_steps", 2), cell(row, "last10_eval", 0),
                  cell(row, "shield_eval_last10", 0)]
         if costs:
-            cells += [cell(row, "cost_rate", 3), cell(row, "eval_cost_last10", 1),
+            cells += [cell(row, "cost_rate", 3, 3), cell(row, "eval_cost_last10", 1),
                       cell(row, "shield_eval_cost_last10", 1)]
         print("| " + " | ".join(cells) + " |")
     return 0
