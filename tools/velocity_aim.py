@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""Whether issue 49's aim is met, per task of an `arms.txt` file (results/velocity/arms.txt): a
+DEFENDER arm (the candidate, `defender-limit`) whose policy, evaluated without the filter, keeps
+the episode cost limit (the mean of the last 10 evaluations' episode cost at most the limit) with
+a higher last-10 return than the best Lagrangian's, while its training cost rate is at most half
+of that Lagrangian's.
+
+  python3 tools/velocity_aim.py results/velocity/arms.txt
+  python3 tools/velocity_aim.py results/velocity/arms.txt --lagrangians lagrangian pid
+
+The *best Lagrangian* is chosen as the screen's rule chose it (docs/decisions-velocity.md): of the
+Lagrangian arms, the one with the highest last-10 return among those whose last-10 evaluation
+cost keeps the limit, else the one with the lowest evaluation cost. By default the Lagrangian arms
+are the repaired Lagrangian SAC, PID and OmniSafe's SACLag (`lagrangian pid omnisafe-saclag`).
+Every figure is the mean over the arm's seeds of `defender report`'s per-run value (the same
+numbers as tools/arms_table.py); the verdict says how many seeds it rests on, and "not yet" while
+an arm it needs has no runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from arms_table import defender_binary, read_arms, report_row  # noqa: E402
+
+DEFAULT_LAGRANGIANS = ["lagrangian", "pid", "omnisafe-saclag"]
+
+
+@dataclass(frozen=True)
+class Arm:
+    name: str
+    seeds: int
+    eval_return: float  # mean of the last 10 evaluations' return, without the filter
+    eval_cost: float  # the same evaluations' mean episode cost
+    cost_rate: float  # training cost / training environment steps
+
+
+def best_lagrangian(arms: list[Arm], limit: float) -> Arm:
+    """The screen's rule: the highest return among those within the limit, else the lowest cost."""
+    within = [a for a in arms if a.eval_cost <= limit]
+    if within:
+        return max(within, key=lambda a: a.eval_return)
+    return min(arms, key=lambda a: a.eval_cost)
+
+
+def verdict(candidate: Arm, best: Arm, limit: float) -> tuple[bool, list[str]]:
+    """Whether the aim is met, and each of its three conditions as a line."""
+    keeps = candidate.eval_cost <= limit
+    higher = candidate.eval_return > best.eval_return
+    bound = 0.5 * best.cost_rate
+    cheap = candidate.cost_rate <= bound
+    lines = [
+        f"evaluation cost {candidate.eval_cost:.1f} {'<=' if keeps else '>'} the limit {limit:g}",
+        f"return {candidate.eval_return:.0f} {'>' if higher else '<='} {best.name}'s {best.eval_return:.0f}",
+        f"training cost rate {candidate.cost_rate:.3f} {'<=' if cheap else '>'} half {best.name}'s "
+        f"({best.cost_rate:.3f} / 2 = {bound:.3f})",
+    ]
+    return keeps and higher and cheap, lines
+
+
+def arm_of(name: str, row: dict[str, str], where: str) -> Arm:
+    try:
+        return Arm(name, int(row["n_seeds"]), float(row["last10_eval_mean"]), float(row["eval_cost_last10_mean"]),
+                   float(row["cost_rate_mean"]))
+    except (KeyError, ValueError) as e:
+        raise SystemExit(f"{where}: the report gives no cost figures ({e}): is this a task with an episode cost limit?")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("arms", type=Path, help="an arms.txt file: TASK ARM DIR... per line")
+    parser.add_argument("--candidate", default="defender-limit", help="the DEFENDER arm held to the aim")
+    parser.add_argument("--lagrangians", nargs="+", default=DEFAULT_LAGRANGIANS, help="the Lagrangian arms")
+    parser.add_argument("--task", action="append", help="only this task (may be repeated)")
+    parser.add_argument("--defender", help="the defender binary (default: on PATH, else target/release)")
+    args = parser.parse_args()
+    binary = defender_binary(args.defender)
+    listed = [a for a in read_arms(args.arms) if not args.task or a[0] in args.task]
+    tasks = list(dict.fromkeys(t for t, arm, _ in listed if arm == args.candidate))
+    if not tasks:
+        raise SystemExit(f"{args.arms}: no arm named {args.candidate!r}")
+    for task in tasks:
+        print(f"## {task}")
+        wanted = [args.candidate, *args.lagrangians]
+        arms, missing, limit = {}, [], None
+        for t, name, dirs in listed:
+            if t != task or name not in wanted:
+                continue
+            if not dirs:
+                missing.append(name)
+                continue
+            where = f"{args.arms}: {task} {name}"
+            row = report_row(binary, dirs, where)
+            if row.get("episode_cost_limit"):
+                limit = float(row["episode_cost_limit"])
+            arms[name] = arm_of(name, row, where)
+        missing += [n for n in wanted if n not in arms and n not in missing]
+        for arm in arms.values():
+            print(f"- {arm.name} ({arm.seeds} seed{'s' if arm.seeds != 1 else ''}): last-10 return {arm.eval_return:.0f}, "
+                  f"evaluation cost {arm.eval_cost:.1f}, training cost rate {arm.cost_rate:.3f}")
+        if args.candidate in missing or not [n for n in args.lagrangians if n in arms]:
+            print(f"- **not yet**: no runs of {', '.join(missing)}\n")
+            continue
+        if limit is None:
+            raise SystemExit(f"{args.arms}: {task}: no episode cost limit in the runs' configuration")
+        best = best_lagrangian([arms[n] for n in args.lagrangians if n in arms], limit)
+        met, lines = verdict(arms[args.candidate], best, limit)
+        seeds = sorted({a.seeds for a in arms.values()})
+        print(f"- best Lagrangian: {best.name}")
+        for line in lines:
+            print(f"  - {line}")
+        provisional = f" (provisional: {', '.join(missing)} not yet run)" if missing else ""
+        print(f"- **aim {'met' if met else 'not met'}**, on {'/'.join(map(str, seeds))} seeds{provisional}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
