@@ -57,3 +57,8 @@ fn velocity_arms_name_complete_runs_of_their_task() {
         ["bare", "lagrangian-v1", "defender", "omnisafe-saclag", "lagrangian", "pid", "defender-limit"];
     check("results/velocity/arms.txt", &arms);
 }
+
+#[test]
+fn crash_limit_arms_name_complete_runs_of_their_task() {
+    check("results/crash-limit/arms.txt", &["bare", "defender", "defender-limit"]);
+}
