@@ -1,9 +1,11 @@
-"""Shared fixtures of the defender-rl tests: the repository's paths, a small pure-Python
-environment with a 1-D Box observation and action space, and demonstrations for it."""
+"""Shared fixtures of the defender-rl tests: the repository's paths, the release `defender` binary,
+a small pure-Python environment with a 1-D Box observation and action space, and demonstrations
+for it."""
 
 from __future__ import annotations
 
 import pathlib
+import subprocess
 
 import gymnasium as gym
 import numpy as np
@@ -13,6 +15,15 @@ import defender_rl
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HOPPER_DEMOS = ROOT / "data" / "demos" / "Hopper-v5.npz"
+
+
+@pytest.fixture(scope="session")
+def binary() -> pathlib.Path:
+    """The release `defender` command, built once if absent (the tools and CLI tests run it)."""
+    exe = ROOT / "target" / "release" / "defender"
+    if not exe.exists():
+        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
+    return exe
 
 
 class DriftEnv(gym.Env):

@@ -6,20 +6,10 @@ from __future__ import annotations
 import subprocess
 import sys
 
-import pytest
-
 from conftest import ROOT
 
 TOOL = ROOT / "tools" / "arms_table.py"
 BARE = " ".join(f"results/keeps-learning/InvertedDoublePendulum-v5/sac-bare-s{s}" for s in range(3))
-
-
-@pytest.fixture(scope="module")
-def binary():
-    exe = ROOT / "target" / "release" / "defender"
-    if not exe.exists():
-        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
-    return exe
 
 
 def run_tool(binary, arms_file):

@@ -37,14 +37,6 @@ strategy = "MinDemoW5/MinDemoW10"
 {extra}"""
 
 
-@pytest.fixture(scope="module")
-def binary() -> pathlib.Path:
-    exe = ROOT / "target" / "release" / "defender"
-    if not exe.exists():
-        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
-    return exe
-
-
 def config(tmp: pathlib.Path, steps: int = 2000, every: int = 0, extra: str = "") -> pathlib.Path:
     path = tmp / f"config-{steps}-{every}-{abs(hash(extra))}.toml"
     path.write_text(CONFIG.format(steps=steps, every=every, extra=extra))

@@ -24,14 +24,6 @@ SMOKE = ROOT / "experiments" / "smoke.toml"
 RUNS = ["InvertedDoublePendulum-v5/sac-bare-s0", "InvertedDoublePendulum-v5/sac-MinDemoW5-MinDemoW10-s0"]
 
 
-@pytest.fixture(scope="module")
-def binary() -> pathlib.Path:
-    exe = ROOT / "target" / "release" / "defender"
-    if not exe.exists():
-        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
-    return exe
-
-
 def metrics(run: pathlib.Path) -> list[str]:
     lines = (run / "metrics.csv").read_text().splitlines()
     # Without wall_seconds, the sixth column (later columns, like cost, follow it).

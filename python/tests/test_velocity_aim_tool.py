@@ -44,14 +44,6 @@ def test_the_aim_needs_all_three_conditions(candidate, met):
     assert aim.verdict(candidate, best, 25.0)[0] is met
 
 
-@pytest.fixture(scope="module")
-def binary():
-    exe = ROOT / "target" / "release" / "defender"
-    if not exe.exists():
-        subprocess.run(["cargo", "build", "--release", "-p", "defender-cli"], cwd=ROOT, check=True)
-    return exe
-
-
 def dirs(arm_dir):
     return " ".join(f"results/velocity/SafetyHopperVelocity-v1/{arm_dir}-s{s}" for s in range(3))
 
