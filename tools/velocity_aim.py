@@ -13,8 +13,9 @@ Lagrangian arms, the one with the highest last-10 return among those whose last-
 cost keeps the limit, else the one with the lowest evaluation cost. By default the Lagrangian arms
 are the repaired Lagrangian SAC, PID and OmniSafe's SACLag (`lagrangian pid omnisafe-saclag`).
 Every figure is the mean over the arm's seeds of `defender report`'s per-run value (the same
-numbers as tools/arms_table.py); the verdict says how many seeds it rests on, and "not yet" while
-an arm it needs has no runs.
+numbers as tools/arms_table.py); the verdict says how many seeds it rests on, "not yet" while
+an arm it needs has no runs, and "provisional" while a Lagrangian arm still to run could change
+it (a candidate over the limit misses the aim whatever they give).
 """
 
 from __future__ import annotations
@@ -60,6 +61,16 @@ def verdict(candidate: Arm, best: Arm, limit: float) -> tuple[bool, list[str]]:
         f"({best.cost_rate:.3f} / 2 = {bound:.3f})",
     ]
     return keeps and higher and cheap, lines
+
+
+def pending(candidate: Arm, missing: list[str], limit: float) -> str:
+    """What the Lagrangian arms still to run leave open, as a suffix of the verdict."""
+    if not missing:
+        return ""
+    if candidate.eval_cost > limit:
+        # The limit is the candidate's own condition: no Lagrangian still to run can meet it.
+        return f" (whatever {', '.join(missing)} give{'s' if len(missing) == 1 else ''}: over the limit)"
+    return f" (provisional: {', '.join(missing)} not yet run)"
 
 
 def arm_of(name: str, row: dict[str, str], where: str) -> Arm:
@@ -113,7 +124,7 @@ def main() -> int:
         print(f"- best Lagrangian: {best.name}")
         for line in lines:
             print(f"  - {line}")
-        provisional = f" (provisional: {', '.join(missing)} not yet run)" if missing else ""
+        provisional = pending(arms[args.candidate], missing, limit)
         print(f"- **aim {'met' if met else 'not met'}**, on {'/'.join(map(str, seeds))} seeds{provisional}\n")
     return 0
 

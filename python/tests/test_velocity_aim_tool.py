@@ -62,7 +62,16 @@ def test_committed_runs_decide_the_aim(binary, tmp_path):
     assert "evaluation cost 66.5 > the limit 25" in out, out
     assert "return 880 <= lagrangian-v1's 971" in out, out
     assert "training cost rate 0.109 > half lagrangian-v1's (0.187 / 2 = 0.093)" in out, out
-    assert "**aim not met**, on 3 seeds (provisional: pid not yet run)" in out, out
+    # Over the limit, the verdict does not wait for PID.
+    assert "**aim not met**, on 3 seeds (whatever pid gives: over the limit)" in out, out
+
+
+def test_a_verdict_waits_for_the_lagrangians_still_to_run_only_within_the_limit():
+    assert aim.pending(arm("x", 1001, 25.0, 0.05), ["pid"], 25.0) == " (provisional: pid not yet run)"
+    assert aim.pending(arm("x", 1001, 25.1, 0.05), ["pid"], 25.0) == " (whatever pid gives: over the limit)"
+    assert aim.pending(arm("x", 1001, 30, 0.05), ["pid", "omnisafe-saclag"], 25.0) == (
+        " (whatever pid, omnisafe-saclag give: over the limit)")
+    assert aim.pending(arm("x", 1001, 30, 0.05), [], 25.0) == ""
 
 
 def test_a_file_without_the_candidate_is_refused(binary, tmp_path):
