@@ -63,8 +63,13 @@ def verdict(candidate: Arm, best: Arm, limit: float) -> tuple[bool, list[str]]:
     return keeps and higher and cheap, lines
 
 
-def pending(candidate: Arm, missing: list[str], limit: float) -> str:
-    """What the Lagrangian arms still to run leave open, as a suffix of the verdict."""
+def pending(candidate: Arm, missing: list[str], limit: float, seeds: int) -> str:
+    """What the runs still to come leave open, as a suffix of the verdict; `seeds` is the most
+    seeds any arm of the task has."""
+    if candidate.seeds < seeds:
+        # The candidate's own mean can still cross the limit: nothing is settled yet.
+        rest = f"; {', '.join(missing)} not yet run" if missing else ""
+        return f" (provisional: {candidate.name} has {candidate.seeds} of {seeds} seeds{rest})"
     if not missing:
         return ""
     if candidate.eval_cost > limit:
@@ -124,7 +129,7 @@ def main() -> int:
         print(f"- best Lagrangian: {best.name}")
         for line in lines:
             print(f"  - {line}")
-        provisional = pending(arms[args.candidate], missing, limit)
+        provisional = pending(arms[args.candidate], missing, limit, max(seeds))
         print(f"- **aim {'met' if met else 'not met'}**, on {'/'.join(map(str, seeds))} seeds{provisional}\n")
     return 0
 

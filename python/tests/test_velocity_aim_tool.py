@@ -67,11 +67,18 @@ def test_committed_runs_decide_the_aim(binary, tmp_path):
 
 
 def test_a_verdict_waits_for_the_lagrangians_still_to_run_only_within_the_limit():
-    assert aim.pending(arm("x", 1001, 25.0, 0.05), ["pid"], 25.0) == " (provisional: pid not yet run)"
-    assert aim.pending(arm("x", 1001, 25.1, 0.05), ["pid"], 25.0) == " (whatever pid gives: over the limit)"
-    assert aim.pending(arm("x", 1001, 30, 0.05), ["pid", "omnisafe-saclag"], 25.0) == (
+    assert aim.pending(arm("x", 1001, 25.0, 0.05), ["pid"], 25.0, 3) == " (provisional: pid not yet run)"
+    assert aim.pending(arm("x", 1001, 25.1, 0.05), ["pid"], 25.0, 3) == " (whatever pid gives: over the limit)"
+    assert aim.pending(arm("x", 1001, 30, 0.05), ["pid", "omnisafe-saclag"], 25.0, 3) == (
         " (whatever pid, omnisafe-saclag give: over the limit)")
-    assert aim.pending(arm("x", 1001, 30, 0.05), [], 25.0) == ""
+    assert aim.pending(arm("x", 1001, 30, 0.05), [], 25.0, 3) == ""
+
+
+def test_a_verdict_waits_for_the_candidates_own_seeds_even_over_the_limit():
+    # Two seeds at 25.4 can still come under 25 with a third.
+    two = aim.Arm("x", 2, 1001, 25.4, 0.05)
+    assert aim.pending(two, ["pid"], 25.0, 3) == " (provisional: x has 2 of 3 seeds; pid not yet run)"
+    assert aim.pending(two, [], 25.0, 3) == " (provisional: x has 2 of 3 seeds)"
 
 
 def test_a_file_without_the_candidate_is_refused(binary, tmp_path):
