@@ -13,6 +13,12 @@ configuration. The columns: seeds; crashes (on a velocity task: falls) over the 
 learner's warm-up, and per 1,000 environment steps; the mean of the last 10 evaluations (unfiltered; with the filter kept,
 where the runs have it); on a task with an episode cost limit, the training cost rate and the
 last-10 evaluation cost (both ways).
+
+With `--shares ARM` it prints instead each arm's crashes as a share of ARM's on the same task (the
+means over seeds divided), over the run and after the warm-up, one row per arm and one column per
+task:
+
+  python3 tools/arms_table.py results/baselines/arms.txt --shares bare
 """
 
 from __future__ import annotations
@@ -68,11 +74,44 @@ def cell(row: dict[str, str], name: str, decimals: int, std_decimals: int = 1) -
     return f"{float(mean):.{decimals}f} ± {float(std):.{std_decimals}f}"
 
 
+def share(row: dict[str, str] | None, base: dict[str, str], name: str) -> str:
+    if row is None:
+        return "(to run)"
+    if float(base[f"{name}_mean"]) == 0:
+        return "-"
+    return f"{float(row[f'{name}_mean']) / float(base[f'{name}_mean']):.2f}"
+
+
+def print_shares(rows: list, base_arm: str, where: Path) -> None:
+    """One row per arm, one column per task: `over the run (after the warm-up)` as shares of the
+    base arm's crashes on that task."""
+    tasks = list(dict.fromkeys(task for task, _, _ in rows))
+    arms = list(dict.fromkeys(arm for _, arm, _ in rows))
+    found = {(task, arm): row for task, arm, row in rows}
+    for task in tasks:
+        if found.get((task, base_arm)) is None:
+            raise SystemExit(f"{where}: {task} has no runs of {base_arm!r} to take shares of")
+    print(f"| arm | " + " | ".join(tasks) + " |")
+    print("| --- | " + " | ".join("---:" for _ in tasks) + " |")
+    for arm in arms:
+        cells = []
+        for task in tasks:
+            if (task, arm) not in found:
+                cells.append("")
+                continue
+            row, base = found[(task, arm)], found[(task, base_arm)]
+            over = share(row, base, "crashes")
+            cells.append(over if row is None else f"{over} ({share(row, base, 'crashes_after_warmup')})")
+        print(f"| {arm} | " + " | ".join(cells) + " |")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("arms", type=Path, help="an arms.txt file: TASK ARM DIR... per line")
     parser.add_argument("--task", action="append", help="only this task (may be repeated)")
     parser.add_argument("--defender", help="the defender binary (default: on PATH, else target/release)")
+    parser.add_argument("--shares", metavar="ARM",
+                        help="print each arm's crashes as a share of ARM's on the same task instead")
     args = parser.parse_args()
     binary = defender_binary(args.defender)
     arms = [a for a in read_arms(args.arms) if not args.task or a[0] in args.task]
@@ -81,6 +120,9 @@ def main() -> int:
     rows = []
     for task, arm, dirs in arms:
         rows.append((task, arm, report_row(binary, dirs, f"{args.arms}: {task} {arm}") if dirs else None))
+    if args.shares:
+        print_shares(rows, args.shares, args.arms)
+        return 0
     costs = any(r and r.get("episode_cost_limit") for _, _, r in rows)
     header = ["task", "arm", "seeds", "crashes", "after warm-up", "crashes / 1k env steps", "last-10 eval",
               "last-10 eval, filter kept"]

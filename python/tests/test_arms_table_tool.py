@@ -40,3 +40,23 @@ def test_an_arm_whose_runs_differ_in_configuration_is_refused_naming_it(binary, 
     done = run_tool(binary, arms)
     assert done.returncode != 0
     assert "InvertedDoublePendulum-v5 mixed" in done.stderr and "2 rows" in done.stderr, done.stderr
+
+
+def test_shares_divide_each_arms_crashes_by_the_base_arms_on_the_same_task(binary, tmp_path):
+    arms = tmp_path / "arms.txt"
+    penalty = " ".join(f"results/baselines/InvertedDoublePendulum-v5/sac-bare-penalty1-s{s}" for s in range(3))
+    arms.write_text(f"InvertedDoublePendulum-v5 bare {BARE}\nInvertedDoublePendulum-v5 penalty-v1 {penalty}\n"
+                    "InvertedDoublePendulum-v5 later\nHopper-v5 bare "
+                    + " ".join(f"results/keeps-learning/Hopper-v5/sac-bare-s{s}" for s in range(3)) + "\n")
+    done = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary), "--shares", "bare"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == "| arm | InvertedDoublePendulum-v5 | Hopper-v5 |", lines[0]
+    assert lines[2] == "| bare | 1.00 (1.00) | 1.00 (1.00) |", lines[2]
+    # The first penalty on IDP: 1102.0 / 1106.7 crashes over the run, 305.7 / 310.3 after the warm-up.
+    assert lines[3] == "| penalty-v1 | 1.00 (0.98) |  |", lines[3]
+    assert lines[4] == "| later | (to run) |  |", lines[4]
+    refused = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary), "--shares",
+                              "penalty-v1"], capture_output=True, text=True)
+    assert refused.returncode != 0 and "Hopper-v5 has no runs of 'penalty-v1'" in refused.stderr, refused.stderr
