@@ -91,7 +91,7 @@ def print_shares(rows: list, base_arm: str, where: Path) -> None:
     for task in tasks:
         if found.get((task, base_arm)) is None:
             raise SystemExit(f"{where}: {task} has no runs of {base_arm!r} to take shares of")
-    print(f"| arm | " + " | ".join(tasks) + " |")
+    print("| arm | " + " | ".join(tasks) + " |")
     print("| --- | " + " | ".join("---:" for _ in tasks) + " |")
     for arm in arms:
         cells = []
