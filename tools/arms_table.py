@@ -19,6 +19,12 @@ means over seeds divided), over the run and after the warm-up, one row per arm a
 task:
 
   python3 tools/arms_table.py results/baselines/arms.txt --shares bare
+
+`--arm ARM` (repeatable) keeps only those arms. `--plots DIR` also draws their plots, one
+`defender report --plots DIR` per task on the shown arms' runs (every arm of a task in one figure
+per kind):
+
+  python3 tools/arms_table.py results/velocity/arms.txt --arm bare --arm defender-limit --plots plots/
 """
 
 from __future__ import annotations
@@ -105,21 +111,42 @@ def print_shares(rows: list, base_arm: str, where: Path) -> None:
         print(f"| {arm} | " + " | ".join(cells) + " |")
 
 
+def draw_plots(binary: str, arms: list[tuple[str, str, list[str]]], out: Path, where: Path) -> None:
+    """One `defender report --plots` per task, on the runs of that task's arms."""
+    tasks: dict[str, list[str]] = {}
+    for task, _, dirs in arms:
+        tasks.setdefault(task, []).extend(dirs)
+    for task, dirs in tasks.items():
+        if not dirs:
+            continue
+        done = subprocess.run([binary, "report", "--strict", "--plots", str(out.resolve()), *dirs], cwd=ROOT,
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"{where}: {task}: the plots failed: {done.stderr.strip()}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("arms", type=Path, help="an arms.txt file: TASK ARM DIR... per line")
     parser.add_argument("--task", action="append", help="only this task (may be repeated)")
+    parser.add_argument("--arm", action="append", help="only this arm (may be repeated)")
+    parser.add_argument("--plots", type=Path, metavar="DIR",
+                        help="also draw the shown arms' plots into DIR, one `defender report --plots` per task")
     parser.add_argument("--defender", help="the defender binary (default: on PATH, else target/release)")
     parser.add_argument("--shares", metavar="ARM",
                         help="print each arm's crashes as a share of ARM's on the same task instead")
     args = parser.parse_args()
     binary = defender_binary(args.defender)
-    arms = [a for a in read_arms(args.arms) if not args.task or a[0] in args.task]
+    arms = [a for a in read_arms(args.arms)
+            if (not args.task or a[0] in args.task) and (not args.arm or a[1] in args.arm)]
     if not arms:
-        raise SystemExit(f"{args.arms}: no arm" + (f" of {', '.join(args.task)}" if args.task else ""))
+        raise SystemExit(f"{args.arms}: no arm" + (f" named {', '.join(args.arm)}" if args.arm else "")
+                         + (f" of {', '.join(args.task)}" if args.task else ""))
     rows = []
     for task, arm, dirs in arms:
         rows.append((task, arm, report_row(binary, dirs, f"{args.arms}: {task} {arm}") if dirs else None))
+    if args.plots:
+        draw_plots(binary, arms, args.plots, args.arms)
     if args.shares:
         print_shares(rows, args.shares, args.arms)
         return 0

@@ -60,3 +60,21 @@ def test_shares_divide_each_arms_crashes_by_the_base_arms_on_the_same_task(binar
     refused = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary), "--shares",
                               "penalty-v1"], capture_output=True, text=True)
     assert refused.returncode != 0 and "Hopper-v5 has no runs of 'penalty-v1'" in refused.stderr, refused.stderr
+
+
+def test_arm_keeps_only_the_named_arms_and_plots_draws_only_theirs(binary, tmp_path):
+    arms = tmp_path / "arms.txt"
+    penalty = " ".join(f"results/baselines/InvertedDoublePendulum-v5/sac-bare-penalty1-s{s}" for s in range(3))
+    arms.write_text(f"InvertedDoublePendulum-v5 bare {BARE}\nInvertedDoublePendulum-v5 penalty-v1 {penalty}\n")
+    plots = tmp_path / "plots"
+    done = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary), "--arm", "penalty-v1",
+                           "--plots", str(plots)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) == 3 and lines[2].startswith("| InvertedDoublePendulum-v5 | penalty-v1 | 3 |"), lines
+    figure = (plots / "InvertedDoublePendulum-v5_sac_crashes.svg").read_text()
+    assert "penalty" in figure and "SAC (bare)" not in figure, "the figure holds the named arm's runs only"
+    assert (plots / "InvertedDoublePendulum-v5_sac_crashes.png").stat().st_size > 0
+    missing = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary), "--arm", "nobody"],
+                             capture_output=True, text=True)
+    assert missing.returncode != 0 and "no arm named nobody" in missing.stderr, missing.stderr
