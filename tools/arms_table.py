@@ -20,9 +20,9 @@ task:
 
   python3 tools/arms_table.py results/baselines/arms.txt --shares bare
 
-`--arm ARM` (repeatable) keeps only those arms. `--plots DIR` also draws their plots, one
-`defender report --plots DIR` per task on the shown arms' runs (every arm of a task in one figure
-per kind):
+`--arm ARM` (repeatable) keeps only those arms. `--plots DIR` also draws their plots,
+`defender report --plots DIR` on the shown arms' runs (every arm of a task in one figure per
+kind):
 
   python3 tools/arms_table.py results/velocity/arms.txt --arm bare --arm defender-limit --plots plots/
 """
@@ -112,17 +112,14 @@ def print_shares(rows: list, base_arm: str, where: Path) -> None:
 
 
 def draw_plots(binary: str, arms: list[tuple[str, str, list[str]]], out: Path, where: Path) -> None:
-    """One `defender report --plots` per task, on the runs of that task's arms."""
-    tasks: dict[str, list[str]] = {}
-    for task, _, dirs in arms:
-        tasks.setdefault(task, []).extend(dirs)
-    for task, dirs in tasks.items():
-        if not dirs:
-            continue
-        done = subprocess.run([binary, "report", "--strict", "--plots", str(out.resolve()), *dirs], cwd=ROOT,
-                              capture_output=True, text=True)
-        if done.returncode != 0:
-            raise SystemExit(f"{where}: {task}: the plots failed: {done.stderr.strip()}")
+    """`defender report --plots` on the shown arms' runs: it draws one figure per task and kind."""
+    dirs = [d for _, _, arm_dirs in arms for d in arm_dirs]
+    if not dirs:
+        return
+    done = subprocess.run([binary, "report", "--strict", "--plots", str(out.resolve()), *dirs], cwd=ROOT,
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{where}: the plots failed: {done.stderr.strip()}")
 
 
 def main() -> int:
@@ -131,7 +128,7 @@ def main() -> int:
     parser.add_argument("--task", action="append", help="only this task (may be repeated)")
     parser.add_argument("--arm", action="append", help="only this arm (may be repeated)")
     parser.add_argument("--plots", type=Path, metavar="DIR",
-                        help="also draw the shown arms' plots into DIR, one `defender report --plots` per task")
+                        help="also draw the shown arms' plots into DIR (`defender report --plots`)")
     parser.add_argument("--defender", help="the defender binary (default: on PATH, else target/release)")
     parser.add_argument("--shares", metavar="ARM",
                         help="print each arm's crashes as a share of ARM's on the same task instead")
