@@ -332,7 +332,10 @@ impl Sac {
         if let Some(cost) = cost {
             actor_loss += cost.actor_term(&ws.pi_in, k * lambda / b as f32, &mut ws.dact);
         }
-        actor_loss += Self::behaviour_cloning(ws, &self.config, b, a);
+        // The cloning term belongs to the task's side of the Lagrangian, so it is weighed by `k`
+        // as SAC's terms are: its weight against the reward stays `bc_weight` whatever `lambda`
+        // (docs/decisions-baselines.md, "The learner half under a multiplier").
+        actor_loss += Self::behaviour_cloning(ws, &self.config, b, a, k);
         // Back through a~ = tanh(u), u = mean + std eps, and log pi:
         //   dL/du = dL/da~ (1 - a~^2) + (alpha/b) d/du[-log(1 - tanh(u)^2 + 1e-6)]
         //   dL/dmean = dL/du;  dL/dlog_std = dL/du std eps - alpha/b  (d log N(u)/d log_std = -1
@@ -356,14 +359,15 @@ impl Sac {
 
     /// Adds the behaviour-cloning term's gradient `d/da~` to `ws.dact` and returns the term
     /// (0 when `bc_weight` is 0). Per row `i` and action dimension `j`, with `e = a~_ij - a_ij`:
-    /// per-row `w bc_i e^2 / (b a)`; the authors' `w mean(bc) e^2 / (b a)` on every row.
-    fn behaviour_cloning(ws: &mut Workspace, config: &SacConfig, b: usize, a: usize) -> f32 {
+    /// per-row `k w bc_i e^2 / (b a)`; the authors' `k w mean(bc) e^2 / (b a)` on every row
+    /// (`k` is the Lagrangian's `1 / (1 + lambda)`, 1 exactly without a cost term).
+    fn behaviour_cloning(ws: &mut Workspace, config: &SacConfig, b: usize, a: usize, k: f32) -> f32 {
         let w = config.bc_weight as f32;
         if w == 0.0 {
             return 0.0;
         }
         let share = ws.batch.bc.iter().sum::<f32>() / b as f32;
-        let scale = w / (b * a) as f32;
+        let scale = k * w / (b * a) as f32;
         let mut loss = 0.0f32;
         for i in 0..b {
             let row_weight = match config.bc_form {

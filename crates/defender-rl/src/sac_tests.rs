@@ -112,6 +112,32 @@ fn the_lagrangian_actor_loss_is_sacs_plus_lambda_q_c_over_one_plus_lambda() {
 }
 
 #[test]
+fn under_a_multiplier_the_cloning_term_is_weighed_as_sacs_terms_are() {
+    // With the learner half, every term but the cost's is weighed by 1 / (1 + lambda): the
+    // cloning term keeps its weight against the reward whatever the multiplier (an unweighed one
+    // would outweigh the reward 1 + lambda times and turn a large multiplier into cloning).
+    let config = SacConfig {
+        ent_coef: EntCoef::Fixed(0.3),
+        demos_in_replay: true,
+        bc_weight: 2.0,
+        ..SacConfig::default()
+    };
+    let mut sac = small_with(config);
+    assert!(sac.ws.batch.bc.iter().any(|&w| w > 0.0), "the batch must hold demonstration rows");
+    let rng = sac.rng.clone();
+    let with_bc = loss(&mut sac, &rng, 0.3);
+    let mut no_bc = small_with(SacConfig { bc_weight: 0.0, ..sac.config.clone() });
+    assert!((with_bc - loss(&mut no_bc, &rng, 0.3)).abs() > 1e-3, "the cloning term must matter here");
+    let mut term = lagrange_term(&sac, 9.0);
+    let lagrangian = loss_with(&mut sac, &rng, 0.3, Some(&mut term));
+    let mean_qc = term.critic.q_values(&sac.ws.pi_in).iter().sum::<f32>() / 8.0;
+    let expected = (with_bc + 9.0 * mean_qc) / 10.0;
+    assert!((lagrangian - expected).abs() < 1e-5, "{lagrangian} vs {expected}");
+    let mut term = lagrange_term(&sac, 9.0);
+    check_actor_gradient_with(sac, 0.3, Some(&mut term));
+}
+
+#[test]
 fn actor_gradient_matches_finite_differences() {
     check_actor_gradient(small(0.3), 0.3);
 }
@@ -141,11 +167,11 @@ fn the_two_forms_weigh_the_batch_as_documented() {
     ws.batch.bc.copy_from_slice(&[1.0, 0.0]);
     let mut c = SacConfig { bc_weight: 1.0, demos_in_replay: true, ..SacConfig::default() };
     // Per row: only row 0, (0.5^2) / (2 rows * 1 dim).
-    assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.125).abs() < 1e-7);
+    assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1, 1.0) - 0.125).abs() < 1e-7);
     c.bc_form = BcForm::Authors;
     ws.dact.fill(0.0);
     // Authors: mean(bc) = 0.5 times the MSE of both rows, (0.25 + 1) / 2.
-    assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1) - 0.3125).abs() < 1e-7);
+    assert!((Sac::behaviour_cloning(&mut ws, &c, 2, 1, 1.0) - 0.3125).abs() < 1e-7);
     // d/da~ of row 1: share 0.5 * 2 * (0 - 1) / (2 rows * 1 dim) = -0.5.
     assert!((ws.dact[1] + 0.5).abs() < 1e-7, "{:?}", ws.dact);
 }
