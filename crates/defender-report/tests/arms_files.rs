@@ -48,7 +48,8 @@ fn baselines_arms_name_complete_runs_of_their_task() {
         "pid",
     ];
     let more = ["recovery", "penalty-demos", "recovery-demos", "lagrangian-demos", "pid-demos"];
-    check("results/baselines/arms.txt", &[&arms[..], &more[..]].concat());
+    let history = ["lagrangian-demos-v1", "pid-demos-v1"];
+    check("results/baselines/arms.txt", &[&arms[..], &more[..], &history[..]].concat());
 }
 
 #[test]
