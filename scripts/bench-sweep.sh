@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `defender sweep --jobs 2` against `--jobs 1` on a grid of equal runs (bare SAC on
 # InvertedDoublePendulum-v5, 4 seeds, STEPS steps each), wall time of each, and the ratio.
-# The target (issue 13): --jobs 2 in at most 60% of the wall time of --jobs 1 on 2 cores.
+# The target: --jobs 2 in at most 60% of the wall time of --jobs 1 on 2 cores.
 #
 #   bash scripts/bench-sweep.sh [STEPS]      (default 4000; run it on an otherwise idle machine)
 set -euo pipefail

@@ -1,4 +1,4 @@
-"""Property tests of the arguments the Python API converts before they reach Rust (issue 27): for
+"""Property tests of the arguments the Python API converts before they reach Rust: for
 any value of any type in any argument of DefenderWrapper, select, DemoRecorder and collect_demos,
 the call either works or raises ValueError, TypeError or DefenderError (a ValueError) whose
 message names the argument. Never a Rust panic (pyo3's PanicException is no Exception, so it

@@ -1,4 +1,4 @@
-"""The ``defender`` launcher's word when the command's runtime is not there (issue 50): the wheel
+"""The ``defender`` launcher's word when the command's runtime is not there: the wheel
 no longer depends on mujoco, so a venv may have none, or safety-gymnasium's 2.3.3, or a Gymnasium
 without the v5 task files; each message names ``defender-rl[cli]``, and a venv of its own where
 another version is installed. The fresh-venv tests run the real script (python/tests_wheel,

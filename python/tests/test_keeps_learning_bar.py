@@ -1,6 +1,6 @@
-"""scripts/keeps_learning_bar.py, which recomputes issue 24's bar from committed run directories:
-each half of the bar decides the verdict, an incomplete run withholds it, and ``--chosen`` reads
-another configuration's file."""
+"""scripts/keeps_learning_bar.py, which recomputes the keeps-learning bar from committed run
+directories: each half of the bar decides the verdict, an incomplete run withholds it, and
+``--chosen`` reads another configuration's file."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Misuse never hangs and bad values are named (issue 27): DefenderWrapper from two threads, a
+"""Misuse never hangs and bad values are named: DefenderWrapper from two threads, a
 re-entrant call from inside the wrapped environment, Ctrl-C during a long selection, NaN and
 infinity from the environment or the agent, and arguments of the wrong kind.
 

@@ -1,4 +1,4 @@
-"""What a new user and a hostile tester hit (issue 35), held: every exception of the package
+"""What a new user and a hostile tester hit, held: every exception of the package
 crosses process boundaries with its message (a vector environment's worker reports its error
 instead of hanging the parent), own episodes cut by a shorter time limit never fill the safe
 group, and the messages say what to do once."""

@@ -1,4 +1,4 @@
-"""strategy="auto" (issue 14): the wrapper chooses the strategy `defender select` / `defender
+"""strategy="auto": the wrapper chooses the strategy `defender select` / `defender
 train --strategy auto` choose (the Rust `defender::selection`), on the shipped demonstrations,
 and exposes the choice and its scores; `defender_rl.select` ranks as `defender select`.
 

@@ -130,7 +130,7 @@ fn learning_from_the_demonstrations_alone_is_the_default_learner_without_its_fil
     assert_eq!(config["sac"]["warmup"].as_bool(), Some(false), "the profile's other keys stay");
 }
 
-/// Equal information (issue 48): every baseline runs with the default's learner half, the
+/// Equal information (the repaired baselines): every baseline runs with the default's learner half, the
 /// demonstrations in the buffer with per-row cloning, exactly as the demonstrations-alone run's
 /// `[sac]`, beside its own `[safety]`.
 #[test]

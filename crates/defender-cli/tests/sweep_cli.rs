@@ -200,7 +200,7 @@ fn an_automatic_run_resumes_and_then_counts_as_complete_under_its_choice() {
 }
 
 /// `--list` shows a run whose lock is held (a `defender train` writing it now) as `running`, not
-/// `stopped`; an `--out` that is a regular file is refused (issue 27).
+/// `stopped`; an `--out` that is a regular file is refused.
 #[test]
 fn list_shows_a_locked_run_as_running() {
     let root = tempfile::tempdir().unwrap();

@@ -151,7 +151,7 @@ fn bad_files_are_refused_with_the_line_to_fix() {
 }
 
 /// Values that parse but cannot run are refused when the file is read, naming the run, the
-/// section, the key and the value (issue 27), not run by run after others have started.
+/// section, the key and the value, not run by run after others have started.
 #[test]
 fn bad_values_are_refused_before_any_run() {
     let first = "run 'InvertedDoublePendulum-v5/sac-bare-s0'";

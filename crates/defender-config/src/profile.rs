@@ -131,7 +131,7 @@ pub fn demos_learner(algo: &str) -> toml::Table {
 }
 
 /// The profile of a new run whose request names none (`defender train` and its `--config` file,
-/// an experiment's runs, `DefenderWrapper`): `keeps-learning`, chosen by issue 24's runs
+/// an experiment's runs, `DefenderWrapper`): `keeps-learning`, chosen by the filter variants' runs
 /// (docs/decisions.md, "The default filter"). A run's record (`config.toml`) is read with the
 /// profile it names, and one that names none was written before profiles existed and ran SPEC's
 /// behaviour, so records do not take this default (`RunConfig`'s `profile` defaults to `spec`).

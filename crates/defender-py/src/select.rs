@@ -1,4 +1,4 @@
-//! Choosing the strategy automatically (issue 14): `defender_rl.select(...)` and the wrapper's
+//! Choosing the strategy automatically: `defender_rl.select(...)` and the wrapper's
 //! `strategy="auto"`, both by [`defender::selection::select`], the code of `defender select` and
 //! `defender train --strategy auto` (docs/decisions.md, "Choosing the strategy automatically").
 

@@ -1,8 +1,8 @@
-//! The committed `results/*/arms.txt` files (issues 33 and 34): each line `TASK ARM DIR...` names
-//! an arm the docs read, with run directories relative to the repository root. Every directory
-//! must be a complete run of that task that the report loads, every arm one of the file's
-//! allowed names, and no directory may serve two arms: a table built from these files is then
-//! built from what is committed.
+//! The committed `results/*/arms.txt` files (the baselines' and the velocity tasks'): each line
+//! `TASK ARM DIR...` names an arm the docs read, with run directories relative to the repository
+//! root. Every directory must be a complete run of that task that the report loads, every arm one
+//! of the file's allowed names, and no directory may serve two arms: a table built from these files
+//! is then built from what is committed.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::collections::HashSet;

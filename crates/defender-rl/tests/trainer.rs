@@ -186,7 +186,7 @@ impl Env for NanAt30 {
 }
 
 /// A NaN from the environment stops the run naming the step, not a NaN in the agent's losses
-/// or in the tables later (issue 27).
+/// or in the tables later.
 #[test]
 fn a_non_finite_reward_stops_the_run_naming_the_step() {
     let config = TrainerConfig { final_eval_episodes: 1, ..TrainerConfig::new(0, Budget::Steps(100)) };

@@ -1,4 +1,4 @@
-//! Choosing the strategy automatically (issue 14, docs/decisions.md "Choosing the strategy
+//! Choosing the strategy automatically (docs/decisions.md, "Choosing the strategy
 //! automatically"): rank strategies for one task from its demonstrations alone, by leave-one-out,
 //! optionally combined with the ablation score (SPEC section 7) on recorded episodes of an agent.
 //!
