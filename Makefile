@@ -31,12 +31,12 @@ bench-peers: setup
 	@bash scripts/bench-peers.sh
 
 # Our SAC and Lagrangian SAC (limit 25) beside OmniSafe's SACLag on SafetyHopperVelocity-v1, one
-# thread each, interleaved (tools/bench_peers.py; installs OmniSafe into .deps/omnisafe-venv first,
-# tools/omnisafe-venv.sh: a multi-GB download the first time). BENCH_ARGS="--repeats 5" etc.
+# thread each, interleaved (tools/peers/bench_peers.py; installs OmniSafe into .deps/omnisafe-venv first,
+# tools/peers/omnisafe-venv.sh: a multi-GB download the first time). BENCH_ARGS="--repeats 5" etc.
 bench-omnisafe: setup
-	@bash tools/omnisafe-venv.sh
+	@bash tools/peers/omnisafe-venv.sh
 	$(CARGO) build --release -p defender-cli
-	.deps/venv/bin/python tools/bench_peers.py --env SafetyHopperVelocity-v1 --algos sac,saclag \
+	.deps/venv/bin/python tools/peers/bench_peers.py --env SafetyHopperVelocity-v1 --algos sac,saclag \
 		--peers omnisafe --threads 1 $(BENCH_ARGS)
 
 lint: setup
@@ -84,8 +84,8 @@ test-sb3: python
 	.deps/venv/bin/python -m pytest python/tests_sb3 -q -p no:cacheprovider
 
 # Opt-in, not part of `make test`: OmniSafe's SACLag and PPOLag trained a few thousand steps each on
-# a DEFENDER-wrapped SafetyHopperVelocity-v1 through OmniSafe's API (tools/omnisafe_defender.py), in
-# OmniSafe's venv (tools/omnisafe-venv.sh: about 6 GB); the wheel goes in without changing any of
+# a DEFENDER-wrapped SafetyHopperVelocity-v1 through OmniSafe's API (tools/peers/omnisafe_defender.py), in
+# OmniSafe's venv (tools/peers/omnisafe-venv.sh: about 6 GB); the wheel goes in without changing any of
 # its packages (scripts/test-omnisafe.sh).
 test-omnisafe: wheel
 	@bash scripts/test-omnisafe.sh

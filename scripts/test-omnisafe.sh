@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # `make test-omnisafe` (not part of `make test`): OmniSafe 0.5.0's SACLag and PPOLag trained on a
-# DEFENDER-wrapped Safety-Gymnasium task through OmniSafe's own API (tools/omnisafe_defender_env.py,
-# tools/omnisafe_defender.py; docs/peers.md, "OmniSafe's agents on a DEFENDER-wrapped task").
+# DEFENDER-wrapped Safety-Gymnasium task through OmniSafe's own API (tools/peers/omnisafe_defender_env.py,
+# tools/peers/omnisafe_defender.py; docs/peers.md, "OmniSafe's agents on a DEFENDER-wrapped task").
 #
-# It runs in OmniSafe's venv, .deps/omnisafe-venv (tools/omnisafe-venv.sh makes it: Python 3.10,
+# It runs in OmniSafe's venv, .deps/omnisafe-venv (tools/peers/omnisafe-venv.sh makes it: Python 3.10,
 # omnisafe 0.5.0, safety-gymnasium 1.0.0, numpy 1.23.5, gymnasium 0.28.1, mujoco 2.3.3 and PyTorch
 # with NVIDIA's CUDA libraries from PyPI, about 6 GB: why this is outside `make test`). Into it go
 # the wheel of `make wheel` (reinstalled each time: the version stays 0.1.0 while the code moves;
@@ -17,7 +17,7 @@ VENV=.deps/omnisafe-venv
 WHEEL=$(ls dist/defender_rl-*.whl)
 PIP=("$VENV/bin/python" -m pip --disable-pip-version-check)
 
-bash tools/omnisafe-venv.sh
+bash tools/peers/omnisafe-venv.sh
 WORK=$(mktemp -d "${TMPDIR:-/tmp}/defender-omnisafe.XXXXXX")
 trap 'rm -rf "$WORK"' EXIT
 "${PIP[@]}" list --format=freeze > "$WORK/before.txt"

@@ -1,4 +1,4 @@
-"""tools/arms_table.py: one row per arm of an arms.txt file, from `defender report` on the arm's
+"""tools/analysis/arms_table.py: one row per arm of an arms.txt file, from `defender report` on the arm's
 committed runs (results/keeps-learning and results/baselines: real runs, known figures)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import sys
 
 from conftest import ROOT
 
-TOOL = ROOT / "tools" / "arms_table.py"
+TOOL = ROOT / "tools" / "analysis" / "arms_table.py"
 BARE = " ".join(f"results/keeps-learning/InvertedDoublePendulum-v5/sac-bare-s{s}" for s in range(3))
 
 

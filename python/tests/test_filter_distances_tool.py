@@ -1,4 +1,4 @@
-"""tools/filter_distances.py replays recorded episodes against the demonstrations: its Safe and
+"""tools/analysis/filter_distances.py replays recorded episodes against the demonstrations: its Safe and
 Unsafe must be the values the Rust filter computed online, z-scored and with the episodes that
 joined the groups as they ended."""
 
@@ -15,7 +15,7 @@ import pytest
 import defender_rl
 from conftest import ROOT, DriftEnv
 
-TOOL = ROOT / "tools" / "filter_distances.py"
+TOOL = ROOT / "tools" / "analysis" / "filter_distances.py"
 
 
 def run_tool(tmp_path, demos, episodes, *extra):

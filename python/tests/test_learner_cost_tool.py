@@ -1,4 +1,4 @@
-"""tools/learner_cost.py: the episode cost a run's constraint learner was charged beside the task's
+"""tools/analysis/learner_cost.py: the episode cost a run's constraint learner was charged beside the task's
 and the deployed policy's; the charge rule on a made-up run (a filtered episode under and over
 L + 1), known figures of committed runs, and its refusals."""
 
@@ -12,7 +12,7 @@ import pytest
 
 from conftest import ROOT
 
-TOOL = ROOT / "tools" / "learner_cost.py"
+TOOL = ROOT / "tools" / "analysis" / "learner_cost.py"
 spec = importlib.util.spec_from_file_location("learner_cost", TOOL)
 tool = importlib.util.module_from_spec(spec)
 sys.modules["learner_cost"] = tool  # dataclasses look their module up there

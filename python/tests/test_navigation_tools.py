@@ -1,4 +1,4 @@
-"""tools/navigation_features.py and the state rule of tools/navigation_summary.py on hand-made
+"""tools/navigation/navigation_features.py and the state rule of tools/navigation/navigation_summary.py on hand-made
 episode sets (docs/results-navigation.md, "Why"): the copy keeps the chosen features, the labels
 and the limit; the rule fires where the largest hazards-lidar bin passes the hazard's radius."""
 
@@ -12,7 +12,7 @@ import numpy as np
 from conftest import ROOT
 from defender_rl import EpisodeSet
 
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "tools" / "navigation"))
 import navigation_summary  # noqa: E402
 
 INSIDE = navigation_summary.INSIDE  # 1 - 0.2 / 3
@@ -37,7 +37,7 @@ def test_features_keep_columns_or_their_largest(tmp_path):
     save(src, [episode(30, True, 10), episode(40, False, None)])
     for flag, dim in (("--columns", 3), ("--max-of", 1)):
         out = tmp_path / f"{flag[2:]}.npz"
-        subprocess.run([sys.executable, str(ROOT / "tools" / "navigation_features.py"), flag, "2:5",
+        subprocess.run([sys.executable, str(ROOT / "tools" / "navigation" / "navigation_features.py"), flag, "2:5",
                         "--in", str(src), "--out", str(out)], check=True, capture_output=True, text=True)
         got = EpisodeSet.load(str(out))
         assert got.meta["obs_dim"] == dim and got.meta["episode_cost_limit"] == 25.0
@@ -48,7 +48,7 @@ def test_features_keep_columns_or_their_largest(tmp_path):
             np.testing.assert_allclose(first[:, 0], [0.1] * 10 + [0.95] * 21, rtol=1e-6)
         else:
             np.testing.assert_allclose(first[12], [0.1, 0.95, 0.1], rtol=1e-6)
-    bad = subprocess.run([sys.executable, str(ROOT / "tools" / "navigation_features.py"), "--columns", "4:9",
+    bad = subprocess.run([sys.executable, str(ROOT / "tools" / "navigation" / "navigation_features.py"), "--columns", "4:9",
                           "--in", str(src), "--out", str(tmp_path / "x.npz")], capture_output=True, text=True)
     assert bad.returncode != 0 and "beyond obs_dim 6" in bad.stderr
 

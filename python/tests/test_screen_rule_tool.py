@@ -1,4 +1,4 @@
-"""tools/screen_rule.py applies the written screen rules (docs/decisions-baselines.md, issue 48;
+"""tools/analysis/screen_rule.py applies the written screen rules (docs/decisions-baselines.md, issue 48;
 docs/decisions-velocity.md, issue 49) to run directories: here hand-made ones whose measures are
 known, so that a wrong count, window or choice shows."""
 
@@ -9,7 +9,7 @@ import sys
 
 from conftest import ROOT
 
-TOOL = ROOT / "tools" / "screen_rule.py"
+TOOL = ROOT / "tools" / "analysis" / "screen_rule.py"
 
 
 def make_run(path, steps, episodes, evals):

@@ -1,4 +1,4 @@
-"""tools/velocity_aim.py: issue 49's aim, decided per task from an arms.txt file, by the screen's
+"""tools/analysis/velocity_aim.py: issue 49's aim, decided per task from an arms.txt file, by the screen's
 rule for the best Lagrangian; its three conditions checked on made-up arms either side of each
 bound, and end to end on committed velocity runs (known figures)."""
 
@@ -12,7 +12,7 @@ import pytest
 
 from conftest import ROOT
 
-TOOL = ROOT / "tools" / "velocity_aim.py"
+TOOL = ROOT / "tools" / "analysis" / "velocity_aim.py"
 spec = importlib.util.spec_from_file_location("velocity_aim", TOOL)
 aim = importlib.util.module_from_spec(spec)
 sys.path.insert(0, str(TOOL.parent))

@@ -1,5 +1,5 @@
-"""The navigation tasks' learner and demonstrations (tools/navigation_train.py,
-tools/navigation_demos.py) in the peer venv: `make test-omnisafe`, outside `make test`.
+"""The navigation tasks' learner and demonstrations (tools/navigation/navigation_train.py,
+tools/navigation/navigation_demos.py) in the peer venv: `make test-omnisafe`, outside `make test`.
 
 Here: OmniSafe's PPOLag trains a few episodes on SafetyPointGoal1-v0; every training episode is
 recorded as the task took it (the raw observation, not OmniSafe's normalised one; the same costs,
@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "tools" / "navigation"))
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")  # gymnasium-robotics' notice about its Adroit tasks
@@ -48,7 +48,7 @@ def run(*args: str) -> subprocess.CompletedProcess:
 
 def train(out: pathlib.Path, seed: int, steps: int) -> None:
     # Epochs of one 1,000-step episode each, one pass over each epoch's data: seconds.
-    done = run("tools/navigation_train.py", "--env", TASK, "--seed", str(seed), "--steps", str(steps),
+    done = run("tools/navigation/navigation_train.py", "--env", TASK, "--seed", str(seed), "--steps", str(steps),
                "--steps-per-epoch", "1000", "--update-iters", "1", "--out", str(out))
     assert done.returncode == 0, done.stderr[-3000:]
 
@@ -103,7 +103,7 @@ def test_demonstrations_from_the_snapshots(tmp_path):
     out = tmp_path / "s4"
     train(out, 4, 2000)
     demos, cands = tmp_path / "demos.npz", tmp_path / "candidates.csv"
-    done = run("tools/navigation_demos.py", "--run", str(out), "--per-snapshot", "2", "--safe", "1",
+    done = run("tools/navigation/navigation_demos.py", "--run", str(out), "--per-snapshot", "2", "--safe", "1",
                "--unsafe", "1", "--out", str(demos), "--candidates", str(cands))
     found = rows(cands)
     assert [int(r["snapshot_epoch"]) for r in found] == [0, 0, 1, 1, 2, 2]

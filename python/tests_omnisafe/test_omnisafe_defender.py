@@ -1,5 +1,5 @@
-"""OmniSafe 0.5.0's agents on a DEFENDER-wrapped Safety-Gymnasium task (tools/omnisafe_defender_env.py,
-tools/omnisafe_defender.py), in the peer venv of tools/omnisafe-venv.sh with the wheel installed:
+"""OmniSafe 0.5.0's agents on a DEFENDER-wrapped Safety-Gymnasium task (tools/peers/omnisafe_defender_env.py,
+tools/peers/omnisafe_defender.py), in the peer venv of tools/peers/omnisafe-venv.sh with the wheel installed:
 `make test-omnisafe` (scripts/test-omnisafe.sh), outside `make test` (the venv is about 6 GB).
 
 Here: the CMDP passes the wrapper's step through OmniSafe's interface (tensors, a filtered step
@@ -25,7 +25,7 @@ import pytest
 import torch
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "tools" / "peers"))
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")  # gymnasium-robotics' notice about its Adroit tasks
@@ -142,7 +142,7 @@ def test_omnisafes_evaluation_environment_is_the_bare_task():
 def train(tmp_path: pathlib.Path, algo: str, *extra: str) -> pathlib.Path:
     out = tmp_path / algo
     cmd = [
-        sys.executable, str(ROOT / "tools" / "omnisafe_defender.py"), "--algo", algo, "--env", TASK,
+        sys.executable, str(ROOT / "tools" / "peers" / "omnisafe_defender.py"), "--algo", algo, "--env", TASK,
         "--seed", "0", "--out", str(out), "--strategy", STRATEGY, *extra,
     ]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env={**os.environ, "DEFENDER_PROGRESS_INTERVAL": "off"})

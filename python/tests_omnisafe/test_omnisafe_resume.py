@@ -1,4 +1,4 @@
-"""tools/omnisafe_saclag.py's checkpoints (tools/omnisafe_checkpoint.py) in the peer venv:
+"""tools/peers/omnisafe_saclag.py's checkpoints (tools/peers/omnisafe_checkpoint.py) in the peer venv:
 `make test-omnisafe`, outside `make test`.
 
 Here: a run killed (SIGKILL, at moments the test does not choose within an epoch) before its first
@@ -26,7 +26,7 @@ import warnings
 import torch
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT / "tools" / "peers"))
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")  # gymnasium-robotics' notice about its Adroit tasks
@@ -40,7 +40,7 @@ ARGS = ["--env", TASK, "--seed", "1", "--steps", "1200", "--steps-per-epoch", "1
 
 
 def command(out: pathlib.Path, *args: str) -> list[str]:
-    return [sys.executable, str(ROOT / "tools" / "omnisafe_saclag.py"), *(args or ARGS), "--out", str(out)]
+    return [sys.executable, str(ROOT / "tools" / "peers" / "omnisafe_saclag.py"), *(args or ARGS), "--out", str(out)]
 
 
 def rows(path: pathlib.Path) -> list[dict[str, str]]:
@@ -165,7 +165,7 @@ def test_a_pickled_adapter_steps_on_bit_identically():
 
     cfgs = get_default_kwargs_yaml("SACLag", TASK, "off-policy")
     adapter = OffPolicyAdapter(TASK, 1, 0, cfgs)
-    # As tools/omnisafe_saclag.py does. It also makes the evaluation environment picklable:
+    # As tools/peers/omnisafe_saclag.py does. It also makes the evaluation environment picklable:
     # MuJoCo 2.3.3 crashes pickling an MjData that mj_forward never ran on (a reset runs it).
     adapter._eval_env.set_seed(0)
     torch.manual_seed(0)

@@ -1,4 +1,4 @@
-"""tools/navigation_episodes.py on SafetyPointGoal1-v0: a learner's training episodes, fed step by
+"""tools/navigation/navigation_episodes.py on SafetyPointGoal1-v0: a learner's training episodes, fed step by
 step, labelled and cut by docs/SPEC.md section 13 exactly as `defender_rl.DemoRecorder` labels and
 cuts a recorded one (the screen's episodes and the demonstrations must follow one rule), and the
 set `defender screen` reads. Seconds: a few hundred steps of the point robot.
@@ -23,7 +23,7 @@ with warnings.catch_warnings():
     from safety_gymnasium.wrappers import SafetyGymnasium2Gymnasium
 
 SOURCE = pathlib.Path(os.environ.get("DEFENDER_SOURCE_TREE", pathlib.Path(__file__).resolve().parents[2]))
-sys.path.insert(0, str(SOURCE / "tools"))
+sys.path.insert(0, str(SOURCE / "tools" / "navigation"))
 from navigation_episodes import CostLabelledEpisodes  # noqa: E402
 
 

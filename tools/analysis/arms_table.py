@@ -3,8 +3,8 @@
 (`TASK ARM DIR...`, e.g. results/baselines/arms.txt), each row `defender report`'s figures for that
 arm's run directories: the same numbers the report gives, named by arm, in one table.
 
-  python3 tools/arms_table.py results/baselines/arms.txt
-  python3 tools/arms_table.py results/velocity/arms.txt --task SafetyHopperVelocity-v1
+  python3 tools/analysis/arms_table.py results/baselines/arms.txt
+  python3 tools/analysis/arms_table.py results/velocity/arms.txt --task SafetyHopperVelocity-v1
 
 Each cell is the mean ± std over the arm's seeds (the report's bootstrap intervals are in its own
 tables). An arm listed without directories is shown as still to run. An arm whose runs the report
@@ -18,13 +18,13 @@ With `--shares ARM` it prints instead each arm's crashes as a share of ARM's on 
 means over seeds divided), over the run and after the warm-up, one row per arm and one column per
 task:
 
-  python3 tools/arms_table.py results/baselines/arms.txt --shares bare
+  python3 tools/analysis/arms_table.py results/baselines/arms.txt --shares bare
 
 `--arm ARM` (repeatable) keeps only those arms. `--plots DIR` also draws their plots,
 `defender report --plots DIR` on the shown arms' runs (every arm of a task in one figure per
 kind):
 
-  python3 tools/arms_table.py results/velocity/arms.txt --arm bare --arm defender-limit --plots plots/
+  python3 tools/analysis/arms_table.py results/velocity/arms.txt --arm bare --arm defender-limit --plots plots/
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def defender_binary(given: str | None) -> str:

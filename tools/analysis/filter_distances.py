@@ -31,7 +31,7 @@ On a recording of a DEFENDER run this is what the run's filter saw (its margin a
 `ratio` with 1 - margin). On a bare run's recording every unsafe episode joins, also those the
 filter would have ended before their violation (`defender screen` models that, this does not). Needs the `defender_rl` package (`make python` installs it into .deps/venv):
 
-  .deps/venv/bin/python tools/filter_distances.py --demos data/demos/SafetyHalfCheetahVelocity-v1.npz \\
+  .deps/venv/bin/python tools/analysis/filter_distances.py --demos data/demos/SafetyHalfCheetahVelocity-v1.npz \\
       --episodes results/velocity/SafetyHalfCheetahVelocity-v1/sac-bare-s0/episodes.npz \\
       --strategy MinTrajW10/MaxTrajW10 --scaling zscore --every 5 --out distances.csv
 """

@@ -4,7 +4,7 @@ mean episode cost of the last N training episodes as the task counts it and as t
 charged it, the share of those episodes each outcome ended, and the mean of the last 10
 evaluations' episode cost (the policy without the filter).
 
-  python3 tools/learner_cost.py results/velocity/SafetyHopperVelocity-v1/sac-auto-defender-limit-s*
+  python3 tools/analysis/learner_cost.py results/velocity/SafetyHopperVelocity-v1/sac-auto-defender-limit-s*
 
 With `[defender] filtered_cost = "violation"` (docs/SPEC.md section 14) a filtered episode costs the
 learner `max(C, L + 1)`, C the task's cost of its executed steps and L the episode cost limit;

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """Applies a screen's written rule to its committed runs and prints a table per task.
 
-The rules are docs/decisions-baselines.md ("The second screen of the baselines' knobs", issue 48)
-and docs/decisions-velocity.md ("The screen", issue 49), each written before its runs. This only
+The rules are docs/decisions-baselines.md ("The second screen of the baselines' knobs")
+and docs/decisions-velocity.md ("The screen"), each written before its runs. This only
 reads run directories (metrics.csv, eval.csv, config.toml); it trains nothing.
 
-  python3 tools/screen_rule.py baselines results/screen-baselines results/screen-baselines-recovery \
+  python3 tools/analysis/screen_rule.py baselines results/screen-baselines results/screen-baselines-recovery \
       --bare results/keeps-learning
-  python3 tools/screen_rule.py velocity results/velocity-limit-screen
+  python3 tools/analysis/screen_rule.py velocity results/velocity-limit-screen
 
 A run directory is TASK/NAME-sSEED; a setting is NAME without its seed. The budget is read from
 each run's config.toml (total_steps); runs still under way are reported as such and left out.
@@ -170,10 +170,10 @@ def velocity(args: argparse.Namespace) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="screen", required=True)
-    b = sub.add_parser("baselines", help="issue 48's screen of the baselines' knobs")
+    b = sub.add_parser("baselines", help="the second screen of the baselines' knobs")
     b.add_argument("roots", nargs="+", help="the screen's sweep directories (TASK/NAME-sSEED runs)")
     b.add_argument("--bare", required=True, help="the directory with TASK/sac-bare-sSEED runs")
-    v = sub.add_parser("velocity", help="issue 49's screen of the DEFENDER variants")
+    v = sub.add_parser("velocity", help="the velocity tasks' screen of the DEFENDER variants")
     v.add_argument("root")
     args = parser.parse_args()
     {"baselines": baselines, "velocity": velocity}[args.screen](args)

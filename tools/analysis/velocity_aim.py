@@ -1,19 +1,19 @@
 #!/usr/bin/env python3
-"""Whether issue 49's aim is met, per task of an `arms.txt` file (results/velocity/arms.txt): a
+"""Whether the velocity tasks' aim is met, per task of an `arms.txt` file (results/velocity/arms.txt): a
 DEFENDER arm (the candidate, `defender-limit`) whose policy, evaluated without the filter, keeps
 the episode cost limit (the mean of the last 10 evaluations' episode cost at most the limit) with
 a higher last-10 return than the best Lagrangian's, while its training cost rate is at most half
 of that Lagrangian's.
 
-  python3 tools/velocity_aim.py results/velocity/arms.txt
-  python3 tools/velocity_aim.py results/velocity/arms.txt --lagrangians lagrangian pid
+  python3 tools/analysis/velocity_aim.py results/velocity/arms.txt
+  python3 tools/analysis/velocity_aim.py results/velocity/arms.txt --lagrangians lagrangian pid
 
 The *best Lagrangian* is chosen as the screen's rule chose it (docs/decisions-velocity.md): of the
 Lagrangian arms, the one with the highest last-10 return among those whose last-10 evaluation
 cost keeps the limit, else the one with the lowest evaluation cost. By default the Lagrangian arms
 are the repaired Lagrangian SAC, PID and OmniSafe's SACLag (`lagrangian pid omnisafe-saclag`).
 Every figure is the mean over the arm's seeds of `defender report`'s per-run value (the same
-numbers as tools/arms_table.py); the verdict says how many seeds it rests on, "not yet" while
+numbers as tools/analysis/arms_table.py); the verdict says how many seeds it rests on, "not yet" while
 an arm it needs has no runs, and "provisional" while a Lagrangian arm still to run could change
 it (a candidate over the limit misses the aim whatever they give).
 """

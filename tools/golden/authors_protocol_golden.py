@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Golden values of the authors' offline ablation and of their choice of demonstrations for
 diversity (docs/SPEC.md section 10), computed independently of the Rust code: numpy and the PyPI
-`fastdtw` package 0.3.4 (its pure-Python module, as tools/fastdtw_golden.py uses it), following
+`fastdtw` package 0.3.4 (its pure-Python module, as tools/golden/fastdtw_golden.py uses it), following
 the facts of their `util/ablations/dtw_extract.py`, `dtw_process.py` and
 `util/demonstration.py` as docs/SPEC.md states them (this is not their code).
 
@@ -25,7 +25,7 @@ shorter than the horizon). The script checks that no decision is a near tie (|sa
 below 2e-7 of their size, 3 units of f32 rounding, without being exactly 0), so that costs
 rounded to f32 (as the Rust filter keeps them) cannot flip one.
 
-Run: .deps/tools-venv/bin/python tools/authors_protocol_golden.py   (numpy, fastdtw 0.3.4)
+Run: .deps/tools-venv/bin/python tools/golden/authors_protocol_golden.py   (numpy, fastdtw 0.3.4)
 """
 
 import json
@@ -34,7 +34,7 @@ from pathlib import Path
 import fastdtw
 import numpy as np
 
-OUT = Path(__file__).resolve().parent.parent / "crates/defender/tests/data/authors_protocol"
+OUT = Path(__file__).resolve().parents[2] / "crates/defender/tests/data/authors_protocol"
 HORIZON = 25
 CAP = 20
 OBS, ACT = 3, 2
@@ -173,7 +173,7 @@ def main():
         unsafe.append((obs, act, rew, True))
     # File order interleaves the groups; each group keeps its own order.
     demos = [safe[0], unsafe[0], unsafe[1], safe[1], safe[2], unsafe[2], safe[3], unsafe[3]]
-    save(OUT / "demos.npz", demos, {"env_id": "Golden-v0", "provenance": "tools/authors_protocol_golden.py"})
+    save(OUT / "demos.npz", demos, {"env_id": "Golden-v0", "provenance": "tools/golden/authors_protocol_golden.py"})
 
     episodes = []
     for i in range(40):
@@ -187,7 +187,7 @@ def main():
         # The recorded flag disagrees with the length for every seventh episode.
         crashed = (steps < HORIZON) != (i % 7 == 3)
         episodes.append((obs, act, rew, crashed))
-    save(OUT / "episodes.npz", episodes, {"env_id": "Golden-v0", "provenance": "tools/authors_protocol_golden.py"})
+    save(OUT / "episodes.npz", episodes, {"env_id": "Golden-v0", "provenance": "tools/golden/authors_protocol_golden.py"})
 
     lines = []
     for mode in ("state", "state-action"):

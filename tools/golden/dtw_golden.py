@@ -8,7 +8,7 @@ values, printed exactly). Distances are dtw-python's
         window_args={"window_size": band}]).distance
 computed in float64 from the float32 inputs.
 
-Run: .deps/tools-venv/bin/python tools/dtw_golden.py   (dtw-python 1.9.0, numpy)
+Run: .deps/tools-venv/bin/python tools/golden/dtw_golden.py   (dtw-python 1.9.0, numpy)
 """
 
 from pathlib import Path
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from dtw import dtw
 
-OUT = Path(__file__).resolve().parent.parent / "crates/defender-dtw/tests/data/dtw_golden.txt"
+OUT = Path(__file__).resolve().parents[2] / "crates/defender-dtw/tests/data/dtw_golden.txt"
 
 
 def cases(rng):

@@ -19,7 +19,7 @@ archive, whose build (isolated, without numpy) cannot compile the Cython extensi
 the pure-Python `fastdtw/fastdtw.py` (see docs/decisions-authors.md). The script refuses to run against
 the compiled extension, whose windows and tie-breaking differ.
 
-Run: .deps/tools-venv/bin/python tools/fastdtw_golden.py   (fastdtw 0.3.4, numpy)
+Run: .deps/tools-venv/bin/python tools/golden/fastdtw_golden.py   (fastdtw 0.3.4, numpy)
 """
 
 from pathlib import Path
@@ -27,7 +27,7 @@ from pathlib import Path
 import fastdtw
 import numpy as np
 
-OUT = Path(__file__).resolve().parent.parent / "crates/defender-dtw/tests/data/fastdtw_golden.txt"
+OUT = Path(__file__).resolve().parents[2] / "crates/defender-dtw/tests/data/fastdtw_golden.txt"
 SETTINGS = [(r, p) for r in (0, 1, 2) for p in ("l1", "l2")]
 
 

@@ -32,7 +32,7 @@ Output, in crates/defender-mujoco/tests/data/:
 
 Needs gymnasium[mujoco]==1.4.0 (gymnasium.envs.mujoco imports imageio and packaging).
 Run (from the repository root, after `make tools-venv`):
-  .deps/tools-venv/bin/python tools/gym_record.py [--tasks Hopper-v4 ...]
+  .deps/tools-venv/bin/python tools/golden/gym_record.py [--tasks Hopper-v4 ...]
 """
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ def rollout(env, qpos: np.ndarray, qvel: np.ndarray, actions: np.ndarray):
 
 def main() -> None:
     here = os.path.dirname(os.path.abspath(__file__))
-    default_out = os.path.join(here, "..", "crates", "defender-mujoco", "tests", "data")
+    default_out = os.path.join(here, "..", "..", "crates", "defender-mujoco", "tests", "data")
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default=default_out, help="output folder (default: %(default)s)")
     parser.add_argument(

@@ -10,7 +10,7 @@ Writes crates/defender-nn/tests/data/golden.json and golden_sequential.safetenso
 - the state_dict of the first network written as safetensors (by hand: 8-byte header length,
   JSON header, little-endian data) under PyTorch's own key names.
 
-Run: .deps/tools-venv/bin/python tools/nn_golden.py
+Run: .deps/tools-venv/bin/python tools/golden/nn_golden.py
 """
 import json
 import struct
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import torch
 
-OUT = Path(__file__).resolve().parent.parent / "crates" / "defender-nn" / "tests" / "data"
+OUT = Path(__file__).resolve().parents[2] / "crates" / "defender-nn" / "tests" / "data"
 ACT = {"relu": torch.nn.ReLU, "tanh": torch.nn.Tanh, "identity": torch.nn.Identity}
 
 

@@ -5,8 +5,8 @@
 # new run are the committed run's, bit for bit; this checks it on metrics.csv (every column but
 # wall_seconds) before it says the recording is the one the docs' screens read.
 #
-#   tools/regenerate-recording.sh RUN_DIR STEPS OUT_DIR
-#   e.g. tools/regenerate-recording.sh results/velocity/SafetyHopperVelocity-v1/sac-bare-s0 100000 /tmp/hopper-s0
+#   tools/golden/regenerate-recording.sh RUN_DIR STEPS OUT_DIR
+#   e.g. tools/golden/regenerate-recording.sh results/velocity/SafetyHopperVelocity-v1/sac-bare-s0 100000 /tmp/hopper-s0
 #
 # writes OUT_DIR/episodes.npz (the recording) and OUT_DIR/run/ (the new run). STEPS is the part a
 # screen reads (docs/results-velocity.md: the first 100k steps). DEFENDER is the `defender`
@@ -17,7 +17,7 @@ if [ $# -ne 3 ]; then
   exit 2
 fi
 run=$1 steps=$2 out=$3
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 defender=${DEFENDER:-$(command -v defender || echo target/release/defender)}
 [ -f "$run/config.toml" ] && [ -f "$run/metrics.csv" ] || { echo "regenerate: $run is not a run directory" >&2; exit 1; }
 mkdir -p "$out"

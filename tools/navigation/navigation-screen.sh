@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# The navigation tasks' first look (docs/results-navigation.md, issue 50 item 4), for one task:
+# The navigation tasks' first look (docs/results-navigation.md), for one task:
 #
 #   1. OmniSafe's PPOLag, bare, seeds 0 and 1, STEPS steps each, every training episode recorded
 #      and labelled by docs/SPEC.md section 13 (limit 25), a policy snapshot every epoch
-#      (tools/navigation_train.py);
+#      (tools/navigation/navigation_train.py);
 #   2. demonstrations from seed 0's snapshots: PER_SNAPSHOT episodes of each snapshot's
 #      deterministic policy through defender_rl.DemoRecorder(episode_cost_limit=25), N_SAFE + N_UNSAFE
-#      kept at evenly spaced positions (tools/navigation_demos.py);
+#      kept at evenly spaced positions (tools/navigation/navigation_demos.py);
 #   3. the strategy `auto` picks on them (`defender select --scaling auto --no-equal`, as
 #      `defender train --strategy auto` chooses);
 #   4. the offline screen: seed 1's recorded training episodes replayed in order through that
@@ -15,21 +15,21 @@
 #   5. the diagnostic (docs/results-navigation.md, "Why"): steps 3 and 4 again on copies of both
 #      sets whose observation is only the hazards lidar (16 features), and only its largest bin
 #      (1 feature: the nearness of the closest hazard), into OUT/features/
-#      (tools/navigation_features.py);
-#   6. the figures the page quotes beside the screens (tools/navigation_summary.py -> summary.json).
+#      (tools/navigation/navigation_features.py);
+#   6. the figures the page quotes beside the screens (tools/navigation/navigation_summary.py -> summary.json).
 #
 # Every step is deterministic given the seeds (one torch thread; OmniSafe seeds torch and the task's
 # first reset, DemoRecorder resets every episode with its derived seed) and skipped when its output
 # exists, so the script resumes. The .npz files and OmniSafe's snapshots stay out of git
 # (.gitignore: results/**/*.npz, results/**/torch_save/); this script remakes them.
 #
-#   bash tools/navigation-screen.sh SafetyPointGoal1-v0
-#   STEPS=100000 PER_SNAPSHOT=20 bash tools/navigation-screen.sh SafetyCarGoal1-v0
+#   bash tools/navigation/navigation-screen.sh SafetyPointGoal1-v0
+#   STEPS=100000 PER_SNAPSHOT=20 bash tools/navigation/navigation-screen.sh SafetyCarGoal1-v0
 #
-# Needs tools/omnisafe-venv.sh's venv with the wheel installed and target/release/defender
+# Needs tools/peers/omnisafe-venv.sh's venv with the wheel installed and target/release/defender
 # (cargo build --release -p defender-cli). Runs one process at a time, niced, one thread.
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 TASK=${1:?usage: navigation-screen.sh TASK (SafetyPointGoal1-v0 or SafetyCarGoal1-v0)}
 STEPS=${STEPS:-100000}
 PER_SNAPSHOT=${PER_SNAPSHOT:-20}
@@ -44,13 +44,13 @@ mkdir -p "$OUT"
 for seed in 0 1; do
   if [ ! -f "$OUT/ppolag-s$seed/episodes.npz" ]; then
     rm -rf "$OUT/ppolag-s$seed"
-    "${RUN[@]}" "$PY" tools/navigation_train.py --env "$TASK" --seed "$seed" --steps "$STEPS" --out "$OUT/ppolag-s$seed"
+    "${RUN[@]}" "$PY" tools/navigation/navigation_train.py --env "$TASK" --seed "$seed" --steps "$STEPS" --out "$OUT/ppolag-s$seed"
   fi
 done
 
 DEMOS=$OUT/demos.npz
 if [ ! -f "$DEMOS" ]; then
-  "${RUN[@]}" "$PY" tools/navigation_demos.py --run "$OUT/ppolag-s0" --per-snapshot "$PER_SNAPSHOT" \
+  "${RUN[@]}" "$PY" tools/navigation/navigation_demos.py --run "$OUT/ppolag-s0" --per-snapshot "$PER_SNAPSHOT" \
     --safe "$N_SAFE" --unsafe "$N_UNSAFE" --seed 0 --out "$DEMOS" --candidates "$OUT/demo-candidates.csv"
 fi
 
@@ -83,7 +83,7 @@ for kind in hlidar hmax; do
   for part in demos ppolag-s1/episodes; do
     name=$(basename "$part")
     [ -f "$FEAT/$kind-$name.npz" ] ||
-      "${RUN[@]}" "$PY" tools/navigation_features.py "${opt[@]}" --in "$OUT/$part.npz" --out "$FEAT/$kind-$name.npz"
+      "${RUN[@]}" "$PY" tools/navigation/navigation_features.py "${opt[@]}" --in "$OUT/$part.npz" --out "$FEAT/$kind-$name.npz"
   done
   [ -f "$FEAT/$kind-selection.csv" ] ||
     "${RUN[@]}" "$DEFENDER" select --demos "$FEAT/$kind-demos.npz" --no-equal --scaling auto --out "$FEAT/$kind-selection.csv"
@@ -95,4 +95,4 @@ for kind in hlidar hmax; do
       --out "$FEAT/$kind-screen.csv"
 done
 
-"${RUN[@]}" "$PY" tools/navigation_summary.py --task-dir "$OUT" --hazards "$HAZARDS" --out "$OUT/summary.json"
+"${RUN[@]}" "$PY" tools/navigation/navigation_summary.py --task-dir "$OUT" --hazards "$HAZARDS" --out "$OUT/summary.json"

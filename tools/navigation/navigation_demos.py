@@ -6,7 +6,7 @@ The paper's procedure (docs/SPEC.md section 13; `defender demos collect` on a co
 after each training episode, one episode of the learner's deterministic policy. For an on-policy
 learner such as PPOLag the policy changes only at an epoch's end, so the policy after every
 training episode of an epoch is that epoch's snapshot: recording `--per-snapshot` episodes of each
-snapshot that tools/navigation_train.py kept (epoch 0, the initial policy, included) is the same
+snapshot that tools/navigation/navigation_train.py kept (epoch 0, the initial policy, included) is the same
 procedure with fewer episodes per policy. `DemoRecorder` labels and cuts them (unsafe: cut on the
 step where the episode cost passed 25; safe: 1,000 steps within it), resets episode `k` with its
 derived 32-bit seed (`defender_rl.demos.reset_seed(--seed, k)`; `k` counts the recorded episodes
@@ -21,8 +21,8 @@ action space as OmniSafe's ActionScale does, clipped to it as the task's actuato
 Into --out (an .npz) and beside it --candidates (CSV): snapshot,episode,label,length,cost,return
 of every recorded episode, kept or not.
 
-Run (in tools/omnisafe-venv.sh's venv with the wheel installed), e.g.
-  OMP_NUM_THREADS=1 nice -n 10 .deps/omnisafe-venv/bin/python tools/navigation_demos.py \\
+Run (in tools/peers/omnisafe-venv.sh's venv with the wheel installed), e.g.
+  OMP_NUM_THREADS=1 nice -n 10 .deps/omnisafe-venv/bin/python tools/navigation/navigation_demos.py \\
       --run results/navigation/SafetyPointGoal1-v0/ppolag-s0 --per-snapshot 10 --safe 25 --unsafe 25 \\
       --seed 0 --out runs/navigation/SafetyPointGoal1-v0-demos.npz --candidates results/navigation/.../candidates.csv
 """
@@ -42,7 +42,7 @@ import numpy as np
 
 
 def snapshots(run: str) -> tuple[str, list[tuple[int, str]]]:
-    """The OmniSafe log folder under a tools/navigation_train.py --out, and its policy snapshots
+    """The OmniSafe log folder under a tools/navigation/navigation_train.py --out, and its policy snapshots
     (epoch, path) in epoch order."""
     folders = sorted(glob.glob(os.path.join(run, "*", "seed-*")))
     if len(folders) != 1:
@@ -101,7 +101,7 @@ class SnapshotPolicy:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--run", required=True, help="a tools/navigation_train.py --out folder")
+    parser.add_argument("--run", required=True, help="a tools/navigation/navigation_train.py --out folder")
     parser.add_argument("--per-snapshot", type=int, required=True, help="episodes recorded per snapshot")
     parser.add_argument("--safe", type=int, required=True, help="safe demonstrations to keep")
     parser.add_argument("--unsafe", type=int, required=True, help="unsafe demonstrations to keep")
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         w.writerow(["snapshot_epoch", "episode", "label", "recorded_steps", "return"])
         w.writerows(rows)
     provenance = (
-        f"tools/navigation_demos.py: defender_rl.DemoRecorder (seed {args.seed}) on {task}, {args.per_snapshot} "
+        f"tools/navigation/navigation_demos.py: defender_rl.DemoRecorder (seed {args.seed}) on {task}, {args.per_snapshot} "
         f"episodes of the deterministic policy of each of {len(snaps)} snapshots (epochs {snaps[0][0]}-{snaps[-1][0]}) "
         f"of {os.path.relpath(folder)} ({len(recorder.candidates)} candidates; unsafe: cut on the step where the "
         f"episode cost passed {args.cost_limit:g}; safe: reached the horizon with cost <= {args.cost_limit:g})"

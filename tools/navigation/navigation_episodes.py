@@ -1,6 +1,6 @@
 """A learner's training episodes, as a stream of steps, into an episode set labelled by docs/SPEC.md
 section 13: what `defender train --record-episodes` writes on a cost task, for a learner that is
-not ours (OmniSafe's, driven by tools/navigation_train.py), so that `defender screen` can replay
+not ours (OmniSafe's, driven by tools/navigation/navigation_train.py), so that `defender screen` can replay
 it.
 
 The rule (the same as `defender_rl.DemoRecorder(episode_cost_limit=L)` and the Rust

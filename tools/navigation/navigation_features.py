@@ -15,7 +15,7 @@ Actions, rewards, lengths and labels are unchanged; `meta` keeps everything (the
 limit among it) with the new obs_dim and a note of the selection. Column ranges of the two tasks:
 SafetyPointGoal1-v0 hazards lidar 28:44 (of 60), SafetyCarGoal1-v0 34:50 (of 72).
 
-  .deps/omnisafe-venv/bin/python tools/navigation_features.py --max-of 28:44 \\
+  .deps/omnisafe-venv/bin/python tools/navigation/navigation_features.py --max-of 28:44 \\
       --in results/navigation/SafetyPointGoal1-v0/demos.npz --out runs/point-demos-hazard.npz
 """
 
@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     meta = dict(found.meta)
     cols = args.columns or args.max_of
     how = "columns" if args.columns is not None else "the largest of columns"
-    meta["features"] = f"{how} {cols.start}:{cols.stop} of obs_dim {meta.get('obs_dim')} (tools/navigation_features.py)"
+    meta["features"] = f"{how} {cols.start}:{cols.stop} of obs_dim {meta.get('obs_dim')} (tools/navigation/navigation_features.py)"
     meta["obs_dim"] = int(episodes[0][0].shape[1])
     env_id = meta.pop("env_id", None)
     EpisodeSet.from_episodes(episodes, env_id=env_id, meta=meta).save(args.out)

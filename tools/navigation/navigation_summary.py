@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The figures docs/results-navigation.md quotes beside the screens, from one task's folder of
-tools/navigation-screen.sh, into a JSON file (and printed):
+tools/navigation/navigation-screen.sh, into a JSON file (and printed):
 
   learner       per seed: episodes safe / unsafe, and per epoch the safe count, mean episode
                 cost and mean return (labels.csv); the cost rate (cost / steps)
@@ -19,7 +19,7 @@ tools/navigation-screen.sh, into a JSON file (and printed):
   selection, screen, features/*   auto's choice (its leave-one-out figures) and the screens'
                 rows, as the CLI wrote them
 
-  .deps/omnisafe-venv/bin/python tools/navigation_summary.py --task-dir results/navigation/SafetyPointGoal1-v0 \\
+  .deps/omnisafe-venv/bin/python tools/navigation/navigation_summary.py --task-dir results/navigation/SafetyPointGoal1-v0 \\
       --hazards 28:44 --out results/navigation/SafetyPointGoal1-v0/summary.json
 """
 

@@ -11,15 +11,15 @@ one CPU thread. Two things are added, neither changing what OmniSafe does:
     the observations are the task's own (before OmniSafe's observation normalisation), the
     actions those the task executed (after OmniSafe's action scaling, clipped to the task's
     action space as its actuators clip them), and the costs `info["cost"]`. The episodes are
-    labelled and cut by docs/SPEC.md section 13 (tools/navigation_episodes.py) into
+    labelled and cut by docs/SPEC.md section 13 (tools/navigation/navigation_episodes.py) into
     OUT/episodes.npz, the input `defender screen --episodes` takes, with `meta`
     episode_cost_limit;
   * OmniSafe saves its policy every `--save-every` epochs (its `logger_cfgs.save_model_freq`;
     OmniSafe also saves the initial policy, epoch 0) into OUT/<ALGO>-<task>/seed-.../torch_save/,
-    which tools/navigation_demos.py reads to record demonstrations.
+    which tools/navigation/navigation_demos.py reads to record demonstrations.
 
 Into --out:
-  episodes.csv   episode,total_steps,return,length,cost,wall_seconds (tools/omnisafe_saclag.py's
+  episodes.csv   episode,total_steps,return,length,cost,wall_seconds (tools/peers/omnisafe_saclag.py's
                  recorder: every training episode as OmniSafe sums it)
   labels.csv     episode,label,length,return,cost,recorded_steps,first_cost_step: the same
                  episodes by section 13's rule (safe / unsafe / neither; recorded_steps: kept in
@@ -28,8 +28,8 @@ Into --out:
   run.json       the arguments, versions, the label counts; "complete": true at the end
   <ALGO>-<task>/seed-SSS-.../   OmniSafe's own logs (progress.csv, config.json) and torch_save/
 
-Run (in tools/omnisafe-venv.sh's venv with the wheel installed), e.g.
-  OMP_NUM_THREADS=1 nice -n 10 .deps/omnisafe-venv/bin/python tools/navigation_train.py \\
+Run (in tools/peers/omnisafe-venv.sh's venv with the wheel installed), e.g.
+  OMP_NUM_THREADS=1 nice -n 10 .deps/omnisafe-venv/bin/python tools/navigation/navigation_train.py \\
       --env SafetyPointGoal1-v0 --seed 0 --steps 100000 --out results/navigation/SafetyPointGoal1-v0/ppolag-s0
 The budget must be a multiple of --steps-per-epoch (OmniSafe's rule; PPOLag's default 20,000, a
 whole number of 1,000-step episodes, so that no epoch cuts an episode).
@@ -44,8 +44,9 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from navigation_episodes import CostLabelledEpisodes  # noqa: E402 (tools/ beside this file)
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(os.path.dirname(HERE), "peers")]  # this folder, and tools/peers/
+from navigation_episodes import CostLabelledEpisodes  # noqa: E402 (beside this file)
 from omnisafe_run_dir import write_json  # noqa: E402
 from omnisafe_saclag import Recorder, hook_episodes, versions  # noqa: E402
 
@@ -172,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         for i, (label, length, ret, cost, kept, first) in enumerate(training.rows):
             w.writerow([i, label, length, repr(ret), repr(cost), kept, first])
     provenance = (
-        f"tools/navigation_train.py: every training episode of OmniSafe {args.algo} on {args.env}, seed {args.seed}, "
+        f"tools/navigation/navigation_train.py: every training episode of OmniSafe {args.algo} on {args.env}, seed {args.seed}, "
         f"{args.steps} steps; unsafe: cut on the step where the episode cost passed {args.cost_limit:g}; safe: reached "
         f"the horizon of {HORIZON} steps with cost <= {args.cost_limit:g}"
     )

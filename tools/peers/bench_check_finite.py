@@ -13,7 +13,7 @@ With ``--only on|off`` it times one wrapper alone and prints its mean step time 
 two as whole processes side by side).
 
 Run (after `make python`):
-    .deps/venv/bin/python tools/bench_check_finite.py --rounds 20 --chunk 2000
+    .deps/venv/bin/python tools/peers/bench_check_finite.py --rounds 20 --chunk 2000
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import numpy as np
 
 from defender_rl import DefenderWrapper, EpisodeSet
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def make(check: bool, demos: EpisodeSet, seed: int) -> DefenderWrapper:

@@ -3,9 +3,9 @@
 SBX (JAX), SAC and TD3, and against OmniSafe's SACLag (`saclag`: our SAC with the Lagrangian at
 the cost limit 25 on a velocity task), in one script run so that every figure sees the same
 machine load. `make bench-peers` installs SB3 and SBX and runs this; `make bench-omnisafe`
-installs OmniSafe (tools/omnisafe-venv.sh) and runs it with `--peers omnisafe`.
+installs OmniSafe (tools/peers/omnisafe-venv.sh) and runs it with `--peers omnisafe`.
 
-Protocol, the same for all (issue 15): Hopper-v5, the libraries' defaults (256x256 networks,
+Protocol, the same for all: Hopper-v5, the libraries' defaults (256x256 networks,
 batch 256, one gradient step per environment step), `learning_starts` (1000) uniformly random
 steps, then `warmup` (1000) steps with updates, untimed, then `measured` (2000) timed steps,
 environment, replay buffer, update and bookkeeping included; the same number of threads for
@@ -15,15 +15,15 @@ everyone (with fewer threads than CPUs, every process is also pinned to the firs
 files); its rate comes from `metrics.csv`, whose rows carry the wall-clock seconds at each
 episode's end: (steps between the last episode ending by step learning_starts + warmup and the
 last recorded episode) / (seconds between them). SB3 and SBX time the same steps with a callback
-(tools/sb3_speed.py). OmniSafe runs as tools/omnisafe_saclag.py runs it (its own defaults, epochs
+(tools/peers/sb3_speed.py). OmniSafe runs as tools/peers/omnisafe_saclag.py runs it (its own defaults, epochs
 of 1,000 steps, `--start-learning-steps` = learning_starts) and is timed as we are, from the wall
 seconds at each episode's end in its episodes.csv. Its SACLag updates the actor every second step
 (`policy_delay` 2) and keeps alpha fixed: less work a step than our SAC, which updates both every
 step and learns alpha.
 
-    .deps/tools-venv/bin/python tools/bench_peers.py [--algos sac,td3] [--peers sb3,sbx] [--threads 2]
+    .deps/tools-venv/bin/python tools/peers/bench_peers.py [--algos sac,td3] [--peers sb3,sbx] [--threads 2]
         [--repeats 1] [--defender target/release/defender] [--env Hopper-v5]
-    python3 tools/bench_peers.py --env SafetyHopperVelocity-v1 --algos sac,saclag --peers omnisafe \
+    python3 tools/peers/bench_peers.py --env SafetyHopperVelocity-v1 --algos sac,saclag --peers omnisafe \
         --threads 1 --repeats 3      (OmniSafe from .deps/omnisafe-venv)
 """
 
@@ -39,7 +39,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def pin(threads: int):
@@ -93,16 +93,16 @@ def episode_rate(path: Path, a: argparse.Namespace) -> dict:
 
 
 def omnisafe_rate(env_id: str, algo: str, a: argparse.Namespace, work: Path) -> dict | None:
-    """OmniSafe's SACLag through tools/omnisafe_saclag.py, timed from its episodes.csv."""
+    """OmniSafe's SACLag through tools/peers/omnisafe_saclag.py, timed from its episodes.csv."""
     if algo != "saclag":
         return None
     if not OMNISAFE_PYTHON.is_file():
-        raise SystemExit(f"{OMNISAFE_PYTHON}: missing (bash tools/omnisafe-venv.sh)")
+        raise SystemExit(f"{OMNISAFE_PYTHON}: missing (bash tools/peers/omnisafe-venv.sh)")
     out = work / f"omnisafe-{time.monotonic_ns()}"
     epoch = 1000
     total = -(-(a.learning_starts + a.warmup + a.measured) // epoch) * epoch
     cmd = [
-        str(OMNISAFE_PYTHON), str(ROOT / "tools" / "omnisafe_saclag.py"), "--env", env_id, "--seed", "0",
+        str(OMNISAFE_PYTHON), str(ROOT / "tools" / "peers" / "omnisafe_saclag.py"), "--env", env_id, "--seed", "0",
         "--steps", str(total), "--steps-per-epoch", str(epoch), "--start-learning-steps", str(a.learning_starts),
         "--cost-limit", str(COST_LIMIT), "--threads", str(a.threads), "--out", str(out),
     ]
@@ -118,7 +118,7 @@ def omnisafe_rate(env_id: str, algo: str, a: argparse.Namespace, work: Path) -> 
 
 def peer_rate(lib: str, env_id: str, algo: str, a: argparse.Namespace) -> dict:
     cmd = [
-        sys.executable, str(ROOT / "tools" / "sb3_speed.py"), algo, env_id, str(a.measured),
+        sys.executable, str(ROOT / "tools" / "peers" / "sb3_speed.py"), algo, env_id, str(a.measured),
         str(a.learning_starts), str(a.threads), "--lib", lib, "--warmup", str(a.warmup), "--json",
     ]
     env = dict(os.environ, OMP_NUM_THREADS=str(a.threads), MKL_NUM_THREADS=str(a.threads),

@@ -18,9 +18,9 @@
    section 5's schedule (one gradient step per real step).
 
 Run (after `make python`):
-    .deps/venv/bin/python tools/bench_python_wrapper.py                 # 1 only
-    .deps/venv/bin/python tools/bench_python_wrapper.py --sb3 5000      # 1 and 2
-    .deps/venv/bin/python tools/bench_python_wrapper.py --skip-wrapper --sb3 5000   # 2 only
+    .deps/venv/bin/python tools/peers/bench_python_wrapper.py                 # 1 only
+    .deps/venv/bin/python tools/peers/bench_python_wrapper.py --sb3 5000      # 1 and 2
+    .deps/venv/bin/python tools/peers/bench_python_wrapper.py --skip-wrapper --sb3 5000   # 2 only
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import numpy as np
 
 from defender_rl import DefenderWrapper, EpisodeSet
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 class Timed(gym.Wrapper):

@@ -12,7 +12,7 @@ per cell: no square root per cell). Throughput is DP cells (n * m) per second.
 
 Run:
     cargo build --release -p defender-dtw --example dtw_speed
-    .deps/tools-venv/bin/python tools/dtw_bench_peer.py [--n 1000 --m 1000 --d 11]
+    .deps/tools-venv/bin/python tools/peers/dtw_bench_peer.py [--n 1000 --m 1000 --d 11]
          [--bin $CARGO_TARGET_DIR/release/examples/dtw_speed]
 """
 
@@ -44,7 +44,7 @@ def main():
     ap.add_argument("--m", type=int, default=1000)
     ap.add_argument("--d", type=int, default=11)
     ap.add_argument("--runs", type=int, default=10)
-    target = os.environ.get("CARGO_TARGET_DIR", str(Path(__file__).resolve().parent.parent / "target"))
+    target = os.environ.get("CARGO_TARGET_DIR", str(Path(__file__).resolve().parents[2] / "target"))
     ap.add_argument("--bin", default=str(Path(target) / "release/examples/dtw_speed"))
     a = ap.parse_args()
 

@@ -4,7 +4,7 @@
 Same loop as crates/defender-mujoco/benches/steps.rs: 64 precomputed sinusoidal actions cycled,
 reset when an episode ends, through `gymnasium.make(id)` (with its default wrappers). One core.
 
-  .deps/tools-venv/bin/python tools/gym_bench.py [--steps 20000]
+  .deps/tools-venv/bin/python tools/peers/gym_bench.py [--steps 20000]
 """
 
 import argparse

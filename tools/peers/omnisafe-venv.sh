@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The peer's Python environment: OmniSafe 0.5.0 on Safety-Gymnasium 1.0.0, in .deps/omnisafe-venv,
-# for tools/omnisafe_saclag.py (OmniSafe's SACLag beside our runs, docs/peers.md). Not part of
+# for tools/peers/omnisafe_saclag.py (OmniSafe's SACLag beside our runs, docs/peers.md). Not part of
 # `make test`, and nothing of the project imports it: OmniSafe is a peer to measure against.
 #
 # Why Python 3.10: safety-gymnasium 1.0.0 pins pygame 2.1.0, which has no wheel for 3.11 or later,
@@ -12,9 +12,9 @@
 # CPU-only wheel from that index instead, where it is reachable. TORCH_SPEC pins the version.
 #
 # Idempotent: a venv that already imports omnisafe 0.5.0 and safety_gymnasium 1.0.0 is left alone.
-# Run from anywhere: bash tools/omnisafe-venv.sh
+# Run from anywhere: bash tools/peers/omnisafe-venv.sh
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 VENV=.deps/omnisafe-venv
 
 find_python() {

@@ -1,6 +1,6 @@
 """Checkpoints of OmniSafe 0.5.0's off-policy training between epochs, for an exact resume.
 
-tools/omnisafe_saclag.py trains SACLag for hours; a session that ends kills the process. This
+tools/peers/omnisafe_saclag.py trains SACLag for hours; a session that ends kills the process. This
 module lets it stop at any moment and continue from the last checkpoint with the same episodes,
 evaluations and progress.csv rows as a run left alone (docs/peers.md, "Resuming a run").
 
@@ -22,7 +22,7 @@ global one, torch's CPU one) beside it. Three kinds of object are pickled by a r
     MjData that mj_forward never ran on crashes the process (a segmentation fault in MuJoCo 2.3.3,
     even after mj_resetData). An environment's reset runs it, and by a checkpoint every
     environment has been reset: the training one when OmniSafe's adapter is built, the
-    evaluation one by tools/omnisafe_saclag.py's seeding and each epoch's evaluation.
+    evaluation one by tools/peers/omnisafe_saclag.py's seeding and each epoch's evaluation.
   * OmniSafe's Logger: its open files (progress.csv, TensorBoard's writer, the console) are left
     out and reopened on load by `reattach_logger`, after the files are cut back to their length at
     the checkpoint.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Train OmniSafe 0.5.0's SACLag or PPOLag on a DEFENDER-wrapped Safety-Gymnasium task.
 
-The environment is `Defender-<task>` of tools/omnisafe_defender_env.py: the task under
+The environment is `Defender-<task>` of tools/peers/omnisafe_defender_env.py: the task under
 `defender_rl.DefenderWrapper` with its demonstrations (data/demos/<task>.npz, or --demos) and the
 episode cost limit 25, registered with OmniSafe as a CMDP; the agent is OmniSafe's own,
 `omnisafe.Agent(ALGO, "Defender-<task>", custom_cfgs=...)`, with OmniSafe's defaults for ALGO
@@ -12,7 +12,7 @@ agents on a DEFENDER-wrapped task").
 
 Into --out (beside OmniSafe's own logs, {ALGO}-{Defender-<task>}/seed-SSS-.../progress.csv ...):
 
-  episodes.csv          every training episode as it ends, as tools/omnisafe_saclag.py writes it
+  episodes.csv          every training episode as it ends, as tools/peers/omnisafe_saclag.py writes it
                         (its recorder): episode,total_steps,return,length,cost,wall_seconds; the
                         return and cost OmniSafe sums, a filtered step's R_task and cost 0 included
   evals.csv             every evaluation episode (SACLag: one an epoch, on the bare task; PPOLag
@@ -27,8 +27,8 @@ OmniSafe's progress.csv also has, per epoch, Defender/Filtered, Defender/Crashed
 Defender/Truncated: the shares of the epoch's finished episodes with each outcome.
   run.json              the arguments, versions (defender-rl's too); "complete": true at the end
 
-Run (after `bash tools/omnisafe-venv.sh` and `pip install dist/defender_rl-*.whl` into it), e.g.
-  .deps/omnisafe-venv/bin/python tools/omnisafe_defender.py --algo SACLag \\
+Run (after `bash tools/peers/omnisafe-venv.sh` and `pip install dist/defender_rl-*.whl` into it), e.g.
+  .deps/omnisafe-venv/bin/python tools/peers/omnisafe_defender.py --algo SACLag \\
       --env SafetyHopperVelocity-v1 --seed 0 --steps 300000 --out runs/omnisafe-defender/hopper-s0
 The budget must be a multiple of --steps-per-epoch (OmniSafe's rule; its defaults: SACLag 2,000,
 PPOLag 20,000). --strategy auto (the default, as `defender train`'s default arm) ranks the
@@ -44,7 +44,7 @@ import sys
 from importlib import metadata
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from omnisafe_run_dir import write_json  # noqa: E402 (tools/ beside this file)
+from omnisafe_run_dir import write_json  # noqa: E402 (tools/peers/ beside this file)
 from omnisafe_saclag import EpisodeCsv, Recorder, hook_episodes, versions  # noqa: E402
 
 ALGOS = {"SACLag": 2000, "PPOLag": 20000}  # OmniSafe 0.5.0's steps_per_epoch for each

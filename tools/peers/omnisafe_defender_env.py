@@ -1,6 +1,6 @@
 """A DEFENDER-wrapped Safety-Gymnasium task as an OmniSafe 0.5.0 environment (a CMDP).
 
-Written against omnisafe 0.5.0 as PyPI ships it (tools/omnisafe-venv.sh), whose code is later than
+Written against omnisafe 0.5.0 as PyPI ships it (tools/peers/omnisafe-venv.sh), whose code is later than
 the repository's v0.5.0 tag: it has `env_cfgs`, `max_episode_steps`, `spec_log` and SACLag's
 warm-up actions drawn by torch, which the tag has not.
 
@@ -9,7 +9,7 @@ Importing this module registers, with OmniSafe's own `env_register`, the environ
 through OmniSafe's API:
 
     import omnisafe
-    import omnisafe_defender_env  # tools/ on sys.path
+    import omnisafe_defender_env  # tools/peers/ on sys.path
 
     env_id = omnisafe_defender_env.configure("SafetyHopperVelocity-v1", strategy="MinBothW5/MinBothW10")
     omnisafe.Agent("SACLag", env_id, custom_cfgs={"lagrange_cfgs": {"cost_limit": 25.0}}).learn()
@@ -61,7 +61,7 @@ Not supported: several environments in one process (`train_cfgs.vector_env_nums`
 need a filter of its own. OmniSafe's `Evaluator` (`Agent.evaluate`/`render` after training) builds
 the environment outside an adapter, so it gets a fresh filter; evaluate the bare task instead.
 
-docs/peers.md, "OmniSafe's agents on a DEFENDER-wrapped task"; tools/omnisafe_defender.py is the
+docs/peers.md, "OmniSafe's agents on a DEFENDER-wrapped task"; tools/peers/omnisafe_defender.py is the
 command line; python/tests_omnisafe runs both (`make test-omnisafe`).
 """
 
@@ -75,19 +75,19 @@ import numpy as np
 import torch
 
 from omnisafe.envs.core import CMDP, Wrapper, env_register
-from omnisafe_saclag import VELOCITY_TASKS  # tools/ on sys.path, as this module itself
+from omnisafe_saclag import VELOCITY_TASKS  # tools/peers/ on sys.path, as this module itself
 
 PREFIX = "Defender-"
 
 NAVIGATION_TASKS = ("SafetyPointGoal1-v0", "SafetyCarGoal1-v0")
 #: Safety-Gymnasium's velocity tasks (data/demos/ ships sets for Hopper, Walker2d and HalfCheetah;
-#: the others need `demos=`) and the two navigation tasks of issue 50 (`demos=` needed).
+#: the others need `demos=`) and the two navigation tasks (`demos=` needed).
 TASKS = VELOCITY_TASKS + NAVIGATION_TASKS
 
 #: The per-episode cost limit of the field's benchmarks (Safety-Gymnasium's, OmniSafe's): 25.
 COST_LIMIT = 25.0
 
-_SOURCE_TREE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+_SOURCE_TREE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 #: DefenderWrapper's keyword arguments per task id, set by `configure`.
 _options: dict[str, dict[str, Any]] = {}
@@ -138,7 +138,7 @@ def configure(task: str, demos: str | os.PathLike | None = None, **wrapper: Any)
         if demos is None:
             raise FileNotFoundError(
                 f"no demonstrations shipped for {task} (data/demos/{task}.npz, or DEFENDER_DATA/demos/): "
-                "give demos=PATH (tools/omnisafe_defender.py: --demos PATH); DemoRecorder / collect_demos "
+                "give demos=PATH (tools/peers/omnisafe_defender.py: --demos PATH); DemoRecorder / collect_demos "
                 "with episode_cost_limit=25 record a set (README, Python)"
             )
     demos = os.fspath(demos)

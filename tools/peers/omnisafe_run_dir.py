@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Turn the output of tools/omnisafe_saclag.py into a run directory that `defender report` reads.
+"""Turn the output of tools/peers/omnisafe_saclag.py into a run directory that `defender report` reads.
 
 OmniSafe's SACLag is a peer (docs/peers.md): its run is not ours, but its curve and measures
 belong in the same table and plots as our arms of the velocity tasks. This writes, into the
@@ -21,8 +21,8 @@ the four files of a run directory (docs/run-directory.md), each atomically:
 
 Only a finished run converts (run.json's "complete": true).
 Stdlib only (it runs on the project's Python or OmniSafe's venv):
-    python3 tools/omnisafe_run_dir.py results/velocity/omnisafe/hopper-s0
-tools/omnisafe_saclag.py calls it when training ends. A second call rewrites the four files from
+    python3 tools/peers/omnisafe_run_dir.py results/velocity/omnisafe/hopper-s0
+tools/peers/omnisafe_saclag.py calls it when training ends. A second call rewrites the four files from
 the same inputs, identically.
 """
 
@@ -84,7 +84,7 @@ def number(path: str, line: int, row: dict[str, str], column: str) -> float:
 def convert(out: str, eval_every: int) -> dict:
     run_path = os.path.join(out, "run.json")
     if not os.path.exists(run_path):
-        raise InputError(f"{run_path}: missing (is {out} an output folder of tools/omnisafe_saclag.py?)")
+        raise InputError(f"{run_path}: missing (is {out} an output folder of tools/peers/omnisafe_saclag.py?)")
     with open(run_path, encoding="utf-8") as f:
         run = json.load(f)
     for key in ("env", "seed", "steps", "cost_limit", "versions", "complete"):
@@ -155,9 +155,9 @@ def convert(out: str, eval_every: int) -> dict:
     versions = run["versions"]
     config = "\n".join(
         [
-            "# A peer's run, converted by tools/omnisafe_run_dir.py from OmniSafe's own output in this",
+            "# A peer's run, converted by tools/peers/omnisafe_run_dir.py from OmniSafe's own output in this",
             "# folder (episodes.csv, evals.csv, run.json): `defender report` reads it beside our runs;",
-            "# `defender train` cannot resume or repeat it (tools/omnisafe_saclag.py can).",
+            "# `defender train` cannot resume or repeat it (tools/peers/omnisafe_saclag.py can).",
             f'env = "{run["env"]}"',
             'algo = "sac"',
             f"seed = {int(run['seed'])}",
@@ -185,7 +185,7 @@ def convert(out: str, eval_every: int) -> dict:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("out", help="an output folder of tools/omnisafe_saclag.py")
+    parser.add_argument("out", help="an output folder of tools/peers/omnisafe_saclag.py")
     parser.add_argument(
         "--eval-every", type=int, default=10000, help="steps per eval.csv row (default 10000, as our runs)"
     )

@@ -27,7 +27,7 @@ to put its curve beside ours episode by episode, this also writes every episode 
                      replay buffer); removed when training ends
   OUT/config.toml, metrics.csv, eval.csv, summary.json
                      when training ends: OUT as a run directory that `defender report` reads
-                     beside ours (tools/omnisafe_run_dir.py, which also converts by hand)
+                     beside ours (tools/peers/omnisafe_run_dir.py, which also converts by hand)
 
 Resuming: the same command again continues a killed run from its last checkpoint, exactly: the
 episodes.csv and evals.csv rows (but wall_seconds), progress.csv (but its Time/* columns) and
@@ -35,12 +35,12 @@ TensorBoard's scalars are those of the run left alone (python/tests_omnisafe/tes
 kills one and compares). Rows written after the checkpoint are cut off first; a run killed before
 its first checkpoint starts again. Other arguments (but --out and --checkpoint-every) or package
 versions than run.json's are refused, naming the differences; a complete run is left alone. What
-a checkpoint holds and how: tools/omnisafe_checkpoint.py. One change to what OmniSafe does: its
+a checkpoint holds and how: tools/peers/omnisafe_checkpoint.py. One change to what OmniSafe does: its
 evaluation environment is seeded with the run's seed (OmniSafe 0.5.0 leaves it to OS entropy, so
 that two runs of a seed evaluated from different initial states); training is unchanged.
 
-Run (after `bash tools/omnisafe-venv.sh`), e.g. one seed at the shared budget:
-  .deps/omnisafe-venv/bin/python tools/omnisafe_saclag.py --env SafetyHopperVelocity-v1 \\
+Run (after `bash tools/peers/omnisafe-venv.sh`), e.g. one seed at the shared budget:
+  .deps/omnisafe-venv/bin/python tools/peers/omnisafe_saclag.py --env SafetyHopperVelocity-v1 \\
       --seed 0 --steps 300000 --out results/velocity/omnisafe/hopper-s0
 The budget must be a multiple of --steps-per-epoch (OmniSafe's rule). The tasks run on
 safety-gymnasium's MuJoCo 2.3.3, not our MuJoCo 3.17: the same task and cost rule, not the same
@@ -60,12 +60,12 @@ import time
 from importlib import metadata
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from omnisafe_run_dir import convert, write_json  # noqa: E402 (tools/ beside this file)
+from omnisafe_run_dir import convert, write_json  # noqa: E402 (tools/peers/ beside this file)
 
 EPISODE_HEADER = ["episode", "total_steps", "return", "length", "cost", "wall_seconds"]
 EVAL_HEADER = ["total_steps", "return", "length", "cost", "wall_seconds"]
 
-CHECKPOINT = "checkpoint"  # OUT/checkpoint/state.pkl: tools/omnisafe_checkpoint.py
+CHECKPOINT = "checkpoint"  # OUT/checkpoint/state.pkl: tools/peers/omnisafe_checkpoint.py
 
 VELOCITY_TASKS = (
     "SafetyHopperVelocity-v1",
@@ -310,7 +310,7 @@ def main() -> int:
     )
     # The same folder as a run directory, for `defender report` beside our runs.
     convert(out, eval_every=10000)
-    print(f"omnisafe_saclag: {out} is also a run directory (tools/omnisafe_run_dir.py)")
+    print(f"omnisafe_saclag: {out} is also a run directory (tools/peers/omnisafe_run_dir.py)")
     shutil.rmtree(checkpoints, ignore_errors=True)  # run.json says complete: no rerun reads it
     return 0
 
@@ -336,7 +336,7 @@ def start(args: argparse.Namespace, out: str) -> tuple:
     # initial states from OS entropy, and two runs of a seed differed in evals.csv. Seeded with the
     # run's seed, as other versions of OmniSafe's OnlineAdapter do; training is unchanged (this
     # draws on no generator training uses). Its reset also lets MuJoCo 2.3.3 pickle its MjData
-    # (tools/omnisafe_checkpoint.py).
+    # (tools/peers/omnisafe_checkpoint.py).
     algo._env._eval_env.set_seed(args.seed)
     return algo, recorder
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Training throughput of a Python peer, Stable-Baselines3 (PyTorch) or SBX (the same SAC/TD3
 on JAX, `pip install sbx-rl`), on a Gymnasium MuJoCo task: the peer of `defender train` in
-`tools/bench_peers.py` (and of `cargo run --release -p defender-cli --example rl_speed`).
+`tools/peers/bench_peers.py` (and of `cargo run --release -p defender-cli --example rl_speed`).
 
 Protocol: `learning_starts` uniformly random steps, then `warmup` steps with one gradient step
 each (untimed: JIT compilation, allocator and cache warm-up), then `measured` timed steps
@@ -9,7 +9,7 @@ each (untimed: JIT compilation, allocator and cache warm-up), then `measured` ti
 networks, Adam 3e-4, one gradient step per step; TD3 with Gaussian exploration noise 0.1), on
 the CPU; PyTorch with a fixed number of threads (JAX: restrict the process's CPUs, e.g. taskset).
 
-    python tools/sb3_speed.py sac Hopper-v5 [measured] [learning_starts] [threads] [--lib sb3|sbx] [--warmup N]
+    python tools/peers/sb3_speed.py sac Hopper-v5 [measured] [learning_starts] [threads] [--lib sb3|sbx] [--warmup N]
 
 Prints one human line and, with --json, one JSON line (the figures bench_peers.py reads).
 """

@@ -6,7 +6,7 @@
 //! cargo run --release -p defender-cli --example rl_speed -- sac Hopper-v5 [measured_steps] [learning_starts]
 //! ```
 //!
-//! The peer is `tools/sb3_speed.py` (Stable-Baselines3 on PyTorch CPU), which measures the same.
+//! The peer is `tools/peers/sb3_speed.py` (Stable-Baselines3 on PyTorch CPU), which measures the same.
 
 use std::time::Instant;
 

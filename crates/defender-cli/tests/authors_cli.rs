@@ -1,5 +1,5 @@
 //! The authors' protocol on the command line (docs/SPEC.md, section 10): `defender ablate
-//! --profile authors` against the independent reference of `tools/authors_protocol_golden.py`,
+//! --profile authors` against the independent reference of `tools/golden/authors_protocol_golden.py`,
 //! its first 500 episodes and its refusals; `defender demos collect --profile authors`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

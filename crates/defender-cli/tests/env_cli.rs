@@ -1,5 +1,5 @@
 //! End-to-end: the built `defender` binary's `env list` and `env replay`, on a Gymnasium
-//! recording made by `tools/gym_record.py` (arrays written by numpy's `np.save`).
+//! recording made by `tools/golden/gym_record.py` (arrays written by numpy's `np.save`).
 
 #![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
 

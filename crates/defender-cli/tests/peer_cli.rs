@@ -1,5 +1,5 @@
-//! A peer library's run beside ours (docs/peers.md): `tools/omnisafe_run_dir.py` turns the output
-//! of `tools/omnisafe_saclag.py` into a run directory, and `defender report` reads it as a row of
+//! A peer library's run beside ours (docs/peers.md): `tools/peers/omnisafe_run_dir.py` turns the output
+//! of `tools/peers/omnisafe_saclag.py` into a run directory, and `defender report` reads it as a row of
 //! its own with the cost task's columns. The input is a real OmniSafe 0.5.0 SACLag run, short
 //! (6,000 steps of SafetyHopperVelocity-v1, seed 0; how it was made is in its `run.json`),
 //! committed as `tests/data/omnisafe-hopper`: the converter is tested on what OmniSafe writes, not
@@ -32,11 +32,11 @@ fn fixture() -> tempfile::TempDir {
 
 fn convert(dir: &Path, extra: &[&str]) -> Output {
     Command::new(python())
-        .arg(repo().join("tools/omnisafe_run_dir.py"))
+        .arg(repo().join("tools/peers/omnisafe_run_dir.py"))
         .arg(dir)
         .args(extra)
         .output()
-        .expect("run tools/omnisafe_run_dir.py")
+        .expect("run tools/peers/omnisafe_run_dir.py")
 }
 
 fn read(dir: &Path, f: &str) -> String {

@@ -1,4 +1,4 @@
-//! `tools/regenerate-recording.sh` (issue 49: the screens read recordings that git ignores): it
+//! `tools/golden/regenerate-recording.sh` (issue 49: the screens read recordings that git ignores): it
 //! trains a run's configuration again and regenerates its recording bit for bit, and says so
 //! only when the new run's episodes equal the committed run's.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -11,7 +11,7 @@ mod common;
 use common::{ok, s};
 
 fn regenerate(run: &Path, steps: &str, out: &Path) -> std::process::Output {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/regenerate-recording.sh");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tools/golden/regenerate-recording.sh");
     Command::new("bash")
         .arg(script)
         .args([s(run), steps, s(out)])

@@ -1,4 +1,4 @@
-//! Times batch DTW and one streaming push, for `tools/dtw_bench_peer.py` (which runs dtaidistance
+//! Times batch DTW and one streaming push, for `tools/peers/dtw_bench_peer.py` (which runs dtaidistance
 //! beside it) and for quick checks.
 //!
 //! ```sh

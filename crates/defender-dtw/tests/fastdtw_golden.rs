@@ -1,5 +1,5 @@
 //! Golden values from the PyPI `fastdtw` package 0.3.4 (its pure-Python module, the one a
-//! `pip install` gives), made by `tools/fastdtw_golden.py`: `fastdtw(x, y, radius, dist)` for
+//! `pip install` gives), made by `tools/golden/fastdtw_golden.py`: `fastdtw(x, y, radius, dist)` for
 //! radius 0, 1, 2 with L1 (`dist=None`) and L2 (`dist=2`), and the package's exact `dtw`.
 #![allow(clippy::unwrap_used)] // test helpers outside #[test] fns: a panic is a failed test
 

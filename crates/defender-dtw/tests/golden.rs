@@ -1,5 +1,5 @@
 //! Golden values from dtw-python (`dtw(x, y, dist_method="euclidean", step_pattern="symmetric1")`,
-//! with `window_type="sakoechiba"` for banded cases), made by `tools/dtw_golden.py`.
+//! with `window_type="sakoechiba"` for banded cases), made by `tools/golden/dtw_golden.py`.
 #![allow(clippy::unwrap_used)] // test helpers outside #[test] fns: a panic is a failed test
 
 mod common;

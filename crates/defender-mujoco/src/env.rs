@@ -3,7 +3,7 @@
 //! Each rule below follows Gymnasium 1.4.0's `hopper_v5.py`, `walker2d_v5.py`,
 //! `inverted_double_pendulum_v5.py`, `hopper_v4.py`, `walker2d_v4.py`, `half_cheetah_v4.py` and
 //! `mujoco_env.py`, and is checked against recordings of Gymnasium itself (`tests/parity.rs`,
-//! data from `tools/gym_record.py`). The velocity tasks add safety-gymnasium 1.0.0's cost
+//! data from `tools/golden/gym_record.py`). The velocity tasks add safety-gymnasium 1.0.0's cost
 //! ([`Cost`](crate::Cost)) to their v4 base and change nothing else.
 
 use defender_rl::{BoxSpace, Env, EnvError, Result, Step, StepInfo, TimeLimit, check_vector};
@@ -177,7 +177,7 @@ impl MujocoEnv {
 
     /// Starts a new episode from the given state: resets all of MuJoCo's data (`mj_resetData`:
     /// time, controls, warm start, warnings), then [`MujocoEnv::set_state`]. Returns the first
-    /// observation. This is how the parity recordings start (see `tools/gym_record.py`).
+    /// observation. This is how the parity recordings start (see `tools/golden/gym_record.py`).
     ///
     /// # Errors
     /// As [`MujocoEnv::set_state`]; on error the environment needs a reset.

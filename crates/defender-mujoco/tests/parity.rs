@@ -1,9 +1,9 @@
-//! Parity with Gymnasium 1.4.0: replays the rollouts recorded by `tools/gym_record.py`
+//! Parity with Gymnasium 1.4.0: replays the rollouts recorded by `tools/golden/gym_record.py`
 //! (Gymnasium's own environments, same MuJoCo 3.17.0) and compares every observation, reward
 //! and termination flag, through termination, within 1e-6. Safety-Gymnasium's velocity tasks
 //! are their v4 base with a cost: they replay the v4 recordings (their costs: velocity_cost.rs).
 //!
-//! Regenerate the data: `.deps/tools-venv/bin/python tools/gym_record.py`.
+//! Regenerate the data: `.deps/tools-venv/bin/python tools/golden/gym_record.py`.
 
 #![allow(clippy::unwrap_used)] // test helpers, outside #[test] functions
 

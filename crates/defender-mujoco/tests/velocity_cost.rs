@@ -1,5 +1,5 @@
 //! Safety-Gymnasium's velocity cost on recorded rollouts: every step of the v4 recordings
-//! (`tools/gym_record.py`, Gymnasium 1.4.0's `info["x_velocity"]`) replayed on the velocity task
+//! (`tools/golden/gym_record.py`, Gymnasium 1.4.0's `info["x_velocity"]`) replayed on the velocity task
 //! costs exactly `float(x_velocity > threshold)`, as safety-gymnasium 1.0.0's
 //! `safety_*_velocity_v0.py` computes it; a fall costs nothing by itself; the v4 bases cost 0;
 //! a step on which MuJoCo becomes unstable costs 1, whatever its velocity.

@@ -1,4 +1,4 @@
-//! PyTorch golden values (torch 2.x on CPU), written by `tools/nn_golden.py` into
+//! PyTorch golden values (torch 2.x on CPU), written by `tools/golden/nn_golden.py` into
 //! `tests/data/golden.json`. The snippets below are what the script runs.
 
 #![allow(clippy::unwrap_used)] // tests may unwrap (helpers are outside #[test] fns)

@@ -504,7 +504,7 @@ pub(crate) struct RawConfig {
     pub(crate) td3: Option<RawAgent>,
     #[serde(default)]
     pub(crate) safety: Option<toml::Table>,
-    /// A peer library's run converted to a run directory (`tools/omnisafe_run_dir.py`): its
+    /// A peer library's run converted to a run directory (`tools/peers/omnisafe_run_dir.py`): its
     /// `name` labels the row.
     #[serde(default)]
     pub(crate) peer: Option<toml::Table>,

@@ -1,5 +1,5 @@
 //! The authors' offline ablation and their choice of demonstrations for diversity against an
-//! independent implementation: `tools/authors_protocol_golden.py` (numpy and the PyPI `fastdtw`
+//! independent implementation: `tools/golden/authors_protocol_golden.py` (numpy and the PyPI `fastdtw`
 //! package 0.3.4) wrote the inputs and the expected values in `tests/data/authors_protocol/`.
 
 #![allow(clippy::unwrap_used)] // test helpers fail loudly on purpose

@@ -1,4 +1,4 @@
-//! The golden rollouts of `tools/gym_record.py` (Gymnasium 1.4.0 on MuJoCo 3.17.0), read for the
+//! The golden rollouts of `tools/golden/gym_record.py` (Gymnasium 1.4.0 on MuJoCo 3.17.0), read for the
 //! parity and cost tests.
 
 #![allow(clippy::unwrap_used, dead_code)] // test helpers; each test file uses a part
