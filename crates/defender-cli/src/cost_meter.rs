@@ -105,4 +105,10 @@ impl<E: Env> Env for CostMeter<E> {
     fn shield(&self) -> Option<Box<dyn defender_rl::Shield>> {
         self.inner.shield()
     }
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        self.inner.fork()
+    }
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        self.inner.failure_proximity(obs)
+    }
 }

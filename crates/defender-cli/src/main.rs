@@ -10,6 +10,7 @@ mod commands;
 mod cost_meter;
 mod demo_horizon;
 mod eval_line;
+mod intervention_line;
 mod progress;
 mod recovery_agent;
 mod resumable;

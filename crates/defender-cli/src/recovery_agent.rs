@@ -9,18 +9,7 @@ use defender_config::run_config::RunConfig;
 use defender_config::shipped_demos;
 use defender_rl::safety::RecoveryConfig;
 use defender_rl::safety::recovery::Recovery;
-use defender_rl::{Agent, AlgoConfig, Sac, SafetyConfig};
-
-/// Recovery RL around the run's SAC, boxed as a run's agent ([`build_recovery`]).
-pub fn build(
-    recovery: &RecoveryConfig,
-    algo: &AlgoConfig,
-    obs_dim: usize,
-    act_dim: usize,
-    seed: u64,
-) -> Result<Box<dyn Agent>> {
-    Ok(Box::new(build_recovery(recovery, algo, obs_dim, act_dim, seed)?))
-}
+use defender_rl::{AlgoConfig, Sac, SafetyConfig};
 
 /// Recovery RL around the run's SAC, as a run builds it (`defender demos risk-horizon` measures
 /// this agent's safety critic). Their task learner is SAC and the safety critic's target samples

@@ -10,9 +10,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use defender_report::{
     CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, EvalShield,
-    METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary, UPDATES_FILE, UPDATES_HEADER, write_atomic,
+    INTERVENTIONS_FILE, INTERVENTIONS_HEADER, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary,
+    UPDATES_FILE, UPDATES_HEADER, intervention_row, write_atomic,
 };
-use defender_rl::{EpisodeRecord, EvalRecord};
+use defender_rl::{EpisodeRecord, EvalRecord, InterventionRecord};
 use serde::Serialize;
 
 /// One `metrics.csv` row.
@@ -54,6 +55,8 @@ pub struct RunDir {
     eval: File,
     updates: File,
     dynamics: Option<File>,
+    /// `interventions.csv` (DEFENDER runs).
+    interventions: Option<File>,
 }
 
 impl RunDir {
@@ -75,12 +78,13 @@ impl RunDir {
         let eval =
             Self::start_csv(&root.join(EVAL_FILE), EVAL_HEADER, evals.iter().map(|r| eval_row(r).to_csv()))?;
         let updates = Self::restart_csv(&root.join(UPDATES_FILE), UPDATES_HEADER, total_steps)?;
-        let dynamics = if dynamics {
-            Some(Self::restart_csv(&root.join(DYNAMICS_FILE), DYNAMICS_HEADER, total_steps)?)
+        let restart = |name: &str, header: &str| Self::restart_csv(&root.join(name), header, total_steps);
+        let (dynamics, interventions) = if dynamics {
+            (Some(restart(DYNAMICS_FILE, DYNAMICS_HEADER)?), Some(restart(INTERVENTIONS_FILE, INTERVENTIONS_HEADER)?))
         } else {
-            None
+            (None, None)
         };
-        Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics })
+        Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics, interventions })
     }
 
     /// Opens the files of a run being resumed as they are, so that nothing in them is lost
@@ -101,6 +105,7 @@ impl RunDir {
             eval: open(EVAL_FILE)?,
             updates: open(UPDATES_FILE)?,
             dynamics: if dynamics { Some(open(DYNAMICS_FILE)?) } else { None },
+            interventions: if dynamics { Some(open(INTERVENTIONS_FILE)?) } else { None },
         })
     }
 
@@ -148,6 +153,14 @@ impl RunDir {
         writeln!(file, "{row}")
             .and_then(|()| file.flush())
             .with_context(|| format!("cannot append to {}", self.root.join(DYNAMICS_FILE).display()))
+    }
+
+    /// Appends an intervention to `interventions.csv` (nothing for a bare run).
+    pub fn append_intervention(&mut self, record: &InterventionRecord) -> Result<()> {
+        let Some(file) = &mut self.interventions else { return Ok(()) };
+        writeln!(file, "{}", intervention_row(record))
+            .and_then(|()| file.flush())
+            .with_context(|| format!("cannot append to {}", self.root.join(INTERVENTIONS_FILE).display()))
     }
 
     /// Appends a row to `updates.csv`.

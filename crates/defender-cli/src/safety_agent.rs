@@ -6,16 +6,22 @@ use defender_rl::safety::lagrangian::LagrangianSac;
 use defender_rl::safety::penalty::Penalized;
 use defender_rl::{Agent, AlgoConfig, SafetyConfig};
 
-/// The run's agent: the configured algorithm, learning from costs as `[safety]` says.
+/// The run's agent: the configured algorithm, learning from costs as `[safety]` says. With
+/// `risk_signal` (DEFENDER's `risk-critic` trigger), Recovery RL raises it instead of acting
+/// with its recovery policy.
 pub fn build_agent(
     config: &RunConfig,
     algo: &AlgoConfig,
-    obs_dim: usize,
-    act_dim: usize,
+    (obs_dim, act_dim): (usize, usize),
     seed: u64,
+    risk_signal: Option<defender_rl::RiskSignal>,
 ) -> Result<Box<dyn Agent>> {
     if let Some(SafetyConfig::Recovery(recovery)) = &config.safety {
-        return crate::recovery_agent::build(recovery, algo, obs_dim, act_dim, seed);
+        let agent = crate::recovery_agent::build_recovery(recovery, algo, obs_dim, act_dim, seed)?;
+        return Ok(match risk_signal {
+            Some(signal) => Box::new(agent.ending_episodes(signal)),
+            None => Box::new(agent),
+        });
     }
     if let Some(SafetyConfig::Lagrangian(lagrangian)) = &config.safety {
         let AlgoConfig::Sac(sac) = algo else {

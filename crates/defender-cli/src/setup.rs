@@ -70,7 +70,13 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     let (obs_dim, act_dim) = (task.observation_space().dim(), task.action_space().dim());
     let action_space = task.action_space().clone();
     let eval_env: Box<dyn Env> = Box::new(defender_mujoco::make(env_id)?);
-    let mut agent = crate::safety_agent::build_agent(config, &algo, obs_dim, act_dim, seed)?;
+    let risk_signal = config
+        .defender
+        .as_ref()
+        .filter(|d| d.filter.trigger == defender::TriggerKind::RiskCritic)
+        .map(|_| defender_rl::RiskSignal::new());
+    let mut agent =
+        crate::safety_agent::build_agent(config, &algo, (obs_dim, act_dim), seed, risk_signal.clone())?;
     let Some(section) = config.defender.as_ref() else {
         let mut replay_demos = None;
         if let Some(path) = crate::recovery_agent::bare_demos(config, algo.demos_in_replay())? {
@@ -128,7 +134,10 @@ pub fn build(config: &RunConfig) -> Result<Built> {
     let mut config = section.to_config()?;
     config.dynamics.background = model_on_own_thread(config.dynamics.background, Parallelism::default());
     let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, SeedPurpose::Wrapper, 0));
-    let wrapped = DefenderEnv::new(task, &demos, config, &mut rng)?;
+    let mut wrapped = DefenderEnv::new(task, &demos, config, &mut rng)?;
+    if let Some(signal) = risk_signal {
+        wrapped.set_risk_signal(signal)?;
+    }
     section.r_task = Some(wrapped.r_task());
     section.demos = Some(path);
     section.demos_sha256 = Some(sha256);

@@ -75,6 +75,11 @@ pub struct RunConfig {
     /// the default, so runs started before it resume unchanged.
     #[serde(default, skip_serializing_if = "LogSection::is_default")]
     pub log: LogSection,
+    /// `[counterfactual]`: every `every`-th intervention of a DEFENDER run checked against the
+    /// unfiltered continuation (docs/SPEC.md, section 15); absent: none is checked. The run
+    /// sets `cost_limit` from the task (a cost task's episode limit).
+    #[serde(default, skip_serializing_if = "defender_rl::CheckConfig::is_off")]
+    pub counterfactual: defender_rl::CheckConfig,
 }
 
 /// The `[log]` section of a run configuration.
@@ -223,6 +228,24 @@ impl RunConfig {
                     )
                 }
                 _ => {}
+            }
+        }
+        if let Some(d) = &self.defender {
+            let trigger = d.filter.trigger;
+            let recovery = matches!(self.safety, Some(defender_rl::SafetyConfig::Recovery(_)));
+            if trigger == defender::TriggerKind::RiskCritic && !recovery {
+                bail!(
+                    "[defender.filter] trigger = \"risk-critic\" with [safety] {}: the risk-critic trigger is \
+                     Recovery RL's safety critic ending episodes; it needs [safety] method = \"recovery\" \
+                     (gamma_risk, eps_risk, pretrain_steps, pos_fraction are its settings)",
+                    self.safety.as_ref().map_or("absent", |s| s.method())
+                );
+            }
+            if trigger == defender::TriggerKind::Violation && task_limit.or(d.episode_cost_limit).is_none() {
+                bail!(
+                    "[defender.filter] trigger = \"violation\" ends an episode once its cost passes the limit: \
+                     {env} is a crash task, where the violation itself ends the episode"
+                );
             }
         }
         if let (Some(d), Some(safety)) = (&self.defender, &self.safety)

@@ -227,9 +227,11 @@ impl MujocoEnv {
             Body::Hopper => {
                 // state_vector()[2:]: qpos[2:] then the unclipped qvel.
                 let state_ok = qpos[2..].iter().chain(self.data.qvel()).all(|&s| -100.0 < s && s < 100.0);
-                state_ok && 0.7 < z && z < f64::INFINITY && -0.2 < angle && angle < 0.2
+                state_ok && HOPPER_Z.0 < z && z < HOPPER_Z.1 && -HOPPER_ANGLE < angle && angle < HOPPER_ANGLE
             }
-            Body::Walker2d => 0.8 < z && z < 2.0 && -1.0 < angle && angle < 1.0,
+            Body::Walker2d => {
+                WALKER_Z.0 < z && z < WALKER_Z.1 && -WALKER_ANGLE < angle && angle < WALKER_ANGLE
+            }
             Body::HalfCheetah | Body::InvertedDoublePendulum => true,
         }
     }
@@ -263,9 +265,76 @@ impl MujocoEnv {
     }
 }
 
+impl Clone for MujocoEnv {
+    /// A copy of the simulator as it stands (`mj_copyData`: positions, velocities, warm starts,
+    /// the time), so that stepping either gives the same trajectory as stepping the other would.
+    fn clone(&self) -> Self {
+        Self {
+            task: self.task,
+            data: self.data.clone(),
+            observation_space: self.observation_space.clone(),
+            action_space: self.action_space.clone(),
+            init_qpos: self.init_qpos.clone(),
+            init_qvel: self.init_qvel.clone(),
+            rng: self.rng.clone(),
+            frame_skip: self.frame_skip,
+            dt: self.dt,
+            needs_reset: self.needs_reset,
+        }
+    }
+}
+
+/// The healthy ranges of Hopper and Walker2d (Gymnasium's `healthy_z_range`,
+/// `healthy_angle_range`) and the initial torso height both start from (`init_qpos[1]`).
+const HOPPER_Z: (f64, f64) = (0.7, f64::INFINITY);
+const HOPPER_ANGLE: f64 = 0.2;
+const WALKER_Z: (f64, f64) = (0.8, 2.0);
+const WALKER_ANGLE: f64 = 1.0;
+const INIT_Z: f64 = 1.25;
+/// InvertedDoublePendulum: the tip's height at rest (two poles of 0.6) and the height at or below
+/// which the episode terminates.
+const IDP_TIP_REST: f64 = 1.2;
+const IDP_TIP_MIN: f64 = 1.0;
+
+/// How far `v` has gone from `init` toward the boundaries `lo < init < hi`: 0 at `init`, 1 on a
+/// boundary (an infinite boundary is never approached).
+fn toward(v: f64, init: f64, (lo, hi): (f64, f64)) -> f64 {
+    if v < init { (init - v) / (init - lo) } else if hi.is_finite() { (v - init) / (hi - init) } else { 0.0 }
+}
+
+/// [`Env::failure_proximity`] of an observation of `body` (columns as [`MujocoEnv::observation`]
+/// writes them): Hopper and Walker2d read the torso height (column 0) and angle (column 1);
+/// InvertedDoublePendulum the tip's height, `0.6 cos q1 + 0.6 cos(q1 + q2)`, from the sines
+/// (columns 1, 2) and cosines (3, 4). Hopper's bound on `|state| < 100` is left out: the
+/// observation clips the velocities it reads.
+fn failure_proximity(body: Body, obs: &[f64]) -> Option<f64> {
+    match body {
+        Body::Hopper if obs.len() >= 2 => {
+            Some(toward(obs[0], INIT_Z, HOPPER_Z).max(obs[1].abs() / HOPPER_ANGLE))
+        }
+        Body::Walker2d if obs.len() >= 2 => {
+            Some(toward(obs[0], INIT_Z, WALKER_Z).max(obs[1].abs() / WALKER_ANGLE))
+        }
+        Body::InvertedDoublePendulum if obs.len() >= 5 => {
+            let (s1, s2, c1, c2) = (obs[1], obs[2], obs[3], obs[4]);
+            let tip = 0.6 * c1 + 0.6 * (c1 * c2 - s1 * s2);
+            Some(((IDP_TIP_REST - tip) / (IDP_TIP_REST - IDP_TIP_MIN)).max(0.0))
+        }
+        _ => None,
+    }
+}
+
 impl Env for MujocoEnv {
     fn id(&self) -> &str {
         self.task.id()
+    }
+
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        Some(Box::new(self.clone()))
+    }
+
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        failure_proximity(self.task.body(), obs)
     }
 
     fn observation_space(&self) -> &BoxSpace {

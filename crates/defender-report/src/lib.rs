@@ -11,6 +11,7 @@ mod discover;
 mod error;
 mod eval_csv;
 mod figure;
+mod interventions;
 mod io;
 mod label;
 mod latex;
@@ -35,6 +36,10 @@ pub use costs::{CostColumns, CostLimits};
 pub use csv_out::CSV_HEADER;
 pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
+pub use interventions::{
+    INTERVENTIONS_FILE, INTERVENTIONS_HEADER, InterventionRow, InterventionSummary, intervention_row,
+    parse_interventions,
+};
 pub use io::write_atomic;
 pub use measures::{LAST_EVALUATIONS, STANDING_TOLERANCE, horizon, is_standing};
 pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};

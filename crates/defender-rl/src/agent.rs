@@ -61,6 +61,20 @@ pub trait Agent {
     /// `obs` or `action` has the wrong length, or `obs` is not finite.
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError>;
 
+    /// The exploration action for `obs`, as [`Agent::act`] with `deterministic = false` gives it,
+    /// but with every draw from `rng`: the agent's own generator and state are left as they
+    /// were, so that a run that asks it for actions on the side (the counterfactual check of an
+    /// intervention, crate::counterfactual) goes on exactly as one that does not.
+    ///
+    /// # Errors
+    /// As [`Agent::act`].
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError>;
+
     /// Stores one transition (and counts the step).
     ///
     /// # Errors
@@ -115,6 +129,14 @@ impl<A: Agent + ?Sized> Agent for Box<A> {
     }
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         (**self).act(obs, deterministic, action)
+    }
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError> {
+        (**self).act_with(obs, rng, action)
     }
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
         (**self).observe(transition)

@@ -104,6 +104,23 @@ pub trait Env {
     fn shield(&self) -> Option<Box<dyn Shield>> {
         None
     }
+
+    /// A copy of the simulator as it stands, with nothing that stops actions (a DEFENDER
+    /// environment: a copy of the environment it wraps, as its last step left it): stepping the
+    /// copy changes nothing here. It answers "what would have happened" after an intervention
+    /// (docs/SPEC.md, section 15). Environments that cannot be copied: `None`.
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        None
+    }
+
+    /// How close `obs` lies to the task's own failure condition: 0 at the task's initial state,
+    /// 1 on the boundary of its healthy range (past it the task terminates), the largest over
+    /// the task's conditions. `None` where the task has no such condition (no crash) or the
+    /// environment does not know it. The `margin` trigger reads it (docs/SPEC.md, section 15).
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        let _ = obs;
+        None
+    }
 }
 
 impl<E: Env + ?Sized> Env for Box<E> {
@@ -133,5 +150,11 @@ impl<E: Env + ?Sized> Env for Box<E> {
     }
     fn shield(&self) -> Option<Box<dyn Shield>> {
         (**self).shield()
+    }
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        (**self).fork()
+    }
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        (**self).failure_proximity(obs)
     }
 }

@@ -495,25 +495,24 @@ impl Agent for Sac {
     }
 
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
-        let a = self.act_dim;
-        check_action_len(action, a)?;
-        obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.config.warmup && self.experience.warming_up(self.config.learning_starts) {
-            uniform_action(&mut self.rng, action);
-            return Ok(());
-        }
-        let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
-        for (j, x) in action.iter_mut().enumerate() {
-            let mean = *out.get(0, j);
-            *x = if deterministic {
-                mean.tanh()
-            } else {
-                let std = out.get(0, a + j).clamp(LOG_STD_MIN, LOG_STD_MAX).exp();
-                let eps: f32 = self.rng.sample(StandardNormal);
-                (mean + std * eps).tanh()
-            };
-        }
-        Ok(())
+        let warming = self.config.warmup && self.experience.warming_up(self.config.learning_starts);
+        let (o, a) = (self.obs_dim, self.act_dim);
+        sample_action(
+            &mut self.actor,
+            &mut self.ws.obs1,
+            (o, a),
+            warming,
+            deterministic,
+            &mut self.rng,
+            obs,
+            action,
+        )
+    }
+
+    fn act_with(&mut self, obs: &[f64], rng: &mut ChaCha8Rng, action: &mut [f32]) -> Result<(), RlError> {
+        let warming = self.config.warmup && self.experience.warming_up(self.config.learning_starts);
+        let (o, a) = (self.obs_dim, self.act_dim);
+        sample_action(&mut self.actor, &mut self.ws.obs1, (o, a), warming, false, rng, obs, action)
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
@@ -565,6 +564,39 @@ impl Agent for Sac {
     fn save_actor(&self, path: &Path) -> Result<(), RlError> {
         Ok(self.actor.save_safetensors(path)?)
     }
+}
+
+/// SAC's action for `obs` into `action`: uniform while `warming` (exploration only), else the
+/// squashed Gaussian of `actor` (its mean when `deterministic`), every draw from `rng`.
+#[allow(clippy::too_many_arguments)]
+fn sample_action(
+    actor: &mut Mlp,
+    obs1: &mut [f32],
+    (obs_dim, act_dim): (usize, usize),
+    warming: bool,
+    deterministic: bool,
+    rng: &mut ChaCha8Rng,
+    obs: &[f64],
+    action: &mut [f32],
+) -> Result<(), RlError> {
+    check_action_len(action, act_dim)?;
+    obs_to_f32(obs, obs1)?;
+    if !deterministic && warming {
+        uniform_action(rng, action);
+        return Ok(());
+    }
+    let out = actor.forward(rows(obs1, 1, obs_dim));
+    for (j, x) in action.iter_mut().enumerate() {
+        let mean = *out.get(0, j);
+        *x = if deterministic {
+            mean.tanh()
+        } else {
+            let std = out.get(0, act_dim + j).clamp(LOG_STD_MIN, LOG_STD_MAX).exp();
+            let eps: f32 = rng.sample(StandardNormal);
+            (mean + std * eps).tanh()
+        };
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -16,6 +16,9 @@ pub enum SeedPurpose {
     Wrapper,
     /// Episodes run outside training, e.g. the demonstration of the policy after episode `index`.
     Demonstration,
+    /// The policy's draws in the counterfactual continuation of intervention `index`
+    /// (crate::counterfactual).
+    Counterfactual,
 }
 
 /// SplitMix64's finaliser: a bijection that scatters nearby inputs.
@@ -36,6 +39,7 @@ pub fn derive_seed(seed: u64, purpose: SeedPurpose, index: u64) -> u64 {
         SeedPurpose::EvalEpisode => 4,
         SeedPurpose::Wrapper => 5,
         SeedPurpose::Demonstration => 6,
+        SeedPurpose::Counterfactual => 7,
     };
     mix(mix(mix(seed) ^ p) ^ index)
 }

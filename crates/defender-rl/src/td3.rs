@@ -255,21 +255,32 @@ impl Agent for Td3 {
     }
 
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
-        check_action_len(action, self.act_dim)?;
-        obs_to_f32(obs, &mut self.ws.obs1)?;
-        if !deterministic && self.config.warmup && self.experience.warming_up(self.config.learning_starts) {
-            uniform_action(&mut self.rng, action);
-            return Ok(());
-        }
-        let out = self.actor.forward(rows(&self.ws.obs1, 1, self.obs_dim));
+        let warming = self.config.warmup && self.experience.warming_up(self.config.learning_starts);
         let sigma = self.config.exploration_noise as f32;
-        for (j, x) in action.iter_mut().enumerate() {
-            *x = *out.get(0, j);
-            if !deterministic {
-                *x = (*x + sigma * self.rng.sample::<f32, _>(StandardNormal)).clamp(-1.0, 1.0);
-            }
-        }
-        Ok(())
+        let ws = &mut self.ws.obs1;
+        sample_action(
+            &mut self.actor,
+            ws,
+            self.obs_dim,
+            (warming, deterministic, sigma),
+            &mut self.rng,
+            obs,
+            action,
+        )
+    }
+
+    fn act_with(&mut self, obs: &[f64], rng: &mut ChaCha8Rng, action: &mut [f32]) -> Result<(), RlError> {
+        let warming = self.config.warmup && self.experience.warming_up(self.config.learning_starts);
+        let sigma = self.config.exploration_noise as f32;
+        sample_action(
+            &mut self.actor,
+            &mut self.ws.obs1,
+            self.obs_dim,
+            (warming, false, sigma),
+            rng,
+            obs,
+            action,
+        )
     }
 
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
@@ -320,6 +331,33 @@ impl Agent for Td3 {
     fn save_actor(&self, path: &Path) -> Result<(), RlError> {
         Ok(self.actor.save_safetensors(path)?)
     }
+}
+
+/// TD3's action for `obs`: uniform while warming up (exploration only), else the actor's, with
+/// Gaussian noise of `sigma` unless `deterministic`; every draw from `rng`.
+fn sample_action(
+    actor: &mut Mlp,
+    obs1: &mut [f32],
+    obs_dim: usize,
+    (warming, deterministic, sigma): (bool, bool, f32),
+    rng: &mut ChaCha8Rng,
+    obs: &[f64],
+    action: &mut [f32],
+) -> Result<(), RlError> {
+    check_action_len(action, actor.out_dim())?;
+    obs_to_f32(obs, obs1)?;
+    if !deterministic && warming {
+        uniform_action(rng, action);
+        return Ok(());
+    }
+    let out = actor.forward(rows(obs1, 1, obs_dim));
+    for (j, x) in action.iter_mut().enumerate() {
+        *x = *out.get(0, j);
+        if !deterministic {
+            *x = (*x + sigma * rng.sample::<f32, _>(StandardNormal)).clamp(-1.0, 1.0);
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

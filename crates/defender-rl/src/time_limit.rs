@@ -74,6 +74,14 @@ impl<E: Env> Env for TimeLimit<E> {
     fn shield(&self) -> Option<Box<dyn crate::Shield>> {
         self.inner.shield()
     }
+    /// The inner copy under the same horizon, with the steps already taken.
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        let inner = self.inner.fork()?;
+        Some(Box::new(TimeLimit { inner, max_episode_steps: self.max_episode_steps, elapsed: self.elapsed }))
+    }
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        self.inner.failure_proximity(obs)
+    }
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::agent::{Agent, UpdateStats};
 use crate::checkpoint::{read_json, resolve, write_atomic, write_json};
+use crate::counterfactual::{CheckConfig, InterventionRecord, check};
 use crate::env::{Env, Step};
 use crate::error::RlError;
 use crate::evaluation::{EvalRecord, Evaluator};
@@ -75,6 +76,9 @@ pub struct TrainerConfig {
     /// the last one (0: never by time), so that a kill -9 loses at most that much work.
     #[serde(default)]
     pub checkpoint_every_seconds: u64,
+    /// The check of interventions against what would have happened (crate::counterfactual).
+    #[serde(default, skip_serializing_if = "CheckConfig::is_off")]
+    pub counterfactual: CheckConfig,
 }
 
 fn default_eval_episodes() -> usize {
@@ -97,6 +101,7 @@ impl TrainerConfig {
             final_eval_episodes: default_final_eval_episodes(),
             checkpoint_every_episodes: 0,
             checkpoint_every_seconds: 0,
+            counterfactual: CheckConfig::default(),
         }
     }
 }
@@ -220,6 +225,15 @@ pub trait Hooks {
         Ok(())
     }
 
+    /// A wrapper ended an episode before its action ran (every such episode; checked or not).
+    ///
+    /// # Errors
+    /// Stops training with [`RlError::Hook`].
+    fn on_intervention(&mut self, record: &InterventionRecord) -> Result<(), HookError> {
+        let _ = record;
+        Ok(())
+    }
+
     /// After each evaluation, periodic and final (append an `eval.csv` row here).
     ///
     /// # Errors
@@ -278,6 +292,9 @@ struct TrainerState {
     total_steps: u64,
     episodes: Vec<EpisodeRecord>,
     evaluations: Vec<EvalRecord>,
+    /// Every intervention so far (episodes a wrapper ended), checked or not.
+    #[serde(default)]
+    interventions: Vec<InterventionRecord>,
     /// Evaluation episodes run so far (their reset seeds continue from here).
     eval_episodes_run: u64,
     wall_seconds: f64,
@@ -370,6 +387,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
             total_steps: 0,
             episodes: Vec::new(),
             evaluations: Vec::new(),
+            interventions: Vec::new(),
             eval_episodes_run: 0,
             wall_seconds: 0.0,
             complete: false,
@@ -543,6 +561,9 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 length += 1;
                 filtered |= step.info.filtered;
                 unstable |= step.info.unstable;
+                if step.info.filtered {
+                    self.intervene((episode, length, cost - step.cost), &env_action, hooks)?;
+                }
                 let eval_freq = self.state.config.eval_freq;
                 // The last step of a step budget gets the final evaluation instead.
                 let last_step =
@@ -598,6 +619,28 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 "run marked complete without a final evaluation",
             )),
         }
+    }
+
+    /// Records the intervention that ended `episode` after `length` steps (the stopped action
+    /// `env_action` from a state the episode reached at cost `cost`), checked when it is due.
+    fn intervene(
+        &mut self,
+        at: (u64, u64, f64),
+        env_action: &[f64],
+        hooks: &mut dyn Hooks,
+    ) -> Result<(), RlError> {
+        let (c, index) = (self.state.config.counterfactual, self.state.interventions.len() as u64);
+        let record = InterventionRecord::new(index, at.0, self.state.total_steps, at.1, at.2);
+        let seed = self.state.config.seed;
+        let record = check(record, &self.env, &mut self.agent, &self.action_space, env_action, (seed, c))?;
+        hooks.on_intervention(&record).map_err(hook_err("on_intervention"))?;
+        self.state.interventions.push(record);
+        Ok(())
+    }
+
+    /// Every intervention so far.
+    pub fn interventions(&self) -> &[InterventionRecord] {
+        &self.state.interventions
     }
 
     /// SB3's `unscale_action`: `[-1, 1]` to the action space's bounds.

@@ -18,6 +18,7 @@ use crate::error::{DefenderError, Result};
 use crate::filter::{Decision, Filter};
 use crate::filter_options::FilterOptions;
 use crate::strategy::{Mode, Strategy};
+use crate::trigger::{Gate, RiskSignal, TriggerKind};
 use crate::violation::UnsafeRule;
 
 /// The largest `|R_task|` accepted: far beyond any task's per-step reward, small enough that
@@ -151,6 +152,11 @@ pub struct DefenderEnv<E> {
     stats: DefenderStats,
     /// The task's cost of the episode under way (for [`FilteredCost::Violation`]).
     episode_cost: f64,
+    /// What decides to end the episode (`[defender.filter] trigger`).
+    gate: Gate,
+    /// The last decision's score under a trigger other than `dtw` (a probability, a failure
+    /// proximity, the episode's cost; 1 or 0 for the risk critic's signal).
+    last_score: Option<f64>,
 }
 
 impl<E: Env> DefenderEnv<E> {
@@ -192,6 +198,39 @@ impl<E: Env> DefenderEnv<E> {
         };
         let filter = AdaptiveFilter::new(&prepared, config.strategy, config.filter)?.with_rule(rule);
         let model = DynamicsModel::new(obs_dim, act_dim, config.dynamics.clone(), rng)?;
+        // Drawn after the model's weights, so that a `dtw` run's streams are as they always were.
+        let gate = match config.filter.trigger {
+            TriggerKind::Dtw => Gate::Dtw,
+            TriggerKind::Margin => {
+                if inner.failure_proximity(&vec![0.0; obs_dim]).is_none() {
+                    return Err(DefenderError::Config(format!(
+                        "[defender.filter] trigger = \"margin\": {} has no failure condition to tighten \
+                         (the margin trigger reads Hopper's, Walker2d's and InvertedDoublePendulum's)",
+                        inner.id()
+                    )));
+                }
+                Gate::Margin { threshold: 1.0 - config.filter.task_margin.unwrap_or(0.0) }
+            }
+            TriggerKind::Violation => match config.episode_cost_limit {
+                Some(limit) => Gate::Violation { limit },
+                None => {
+                    return Err(DefenderError::Config(format!(
+                        "[defender.filter] trigger = \"violation\" ends an episode once its cost passes \
+                         the limit: {} is a crash task (no episode_cost_limit), where the violation \
+                         already ends the episode",
+                        inner.id()
+                    )));
+                }
+            },
+            TriggerKind::RiskCritic => Gate::RiskCritic(None),
+            TriggerKind::Classifier => Gate::Classifier(Box::new(crate::classifier::Classifier::new(
+                demos,
+                config.mode,
+                config.filter.classifier.unwrap_or_default(),
+                config.filter.own_episodes.map(|o| o.keep),
+                rng,
+            )?)),
+        };
         let dynamics = TrainedDynamics::new(model, config.dynamics.background)?;
         Ok(Self {
             inner,
@@ -207,7 +246,39 @@ impl<E: Env> DefenderEnv<E> {
             last_outcome: None,
             stats: DefenderStats::default(),
             episode_cost: 0.0,
+            gate,
+            last_score: None,
         })
+    }
+
+    /// What decides to end the episode.
+    pub fn trigger(&self) -> TriggerKind {
+        self.config.filter.trigger
+    }
+
+    /// The signal by which a Recovery RL agent's safety critic ends episodes (the `risk-critic`
+    /// trigger); the agent holds a clone (`defender_rl::safety::recovery::Recovery::ending_episodes`).
+    ///
+    /// # Errors
+    /// [`DefenderError::Config`] when the trigger is not `risk-critic`.
+    pub fn set_risk_signal(&mut self, signal: RiskSignal) -> Result<()> {
+        match &mut self.gate {
+            Gate::RiskCritic(slot) => {
+                *slot = Some(signal);
+                Ok(())
+            }
+            _ => Err(DefenderError::Config(format!(
+                "a risk signal ends episodes under trigger = \"risk-critic\" only; this run's is \"{}\"",
+                self.config.filter.trigger.as_str()
+            ))),
+        }
+    }
+
+    /// The last step's score under a trigger other than `dtw` (the classifier's probability, the
+    /// state's failure proximity, the episode's cost so far, or 1 / 0 for the risk critic's
+    /// signal); `None` under `dtw` ([`DefenderEnv::last_decision`] holds its costs).
+    pub fn last_score(&self) -> Option<f64> {
+        self.last_score
     }
 
     /// The reward of a filtered step, as used.
@@ -312,7 +383,55 @@ impl<E: Env> DefenderEnv<E> {
             Outcome::Crashed => self.stats.crashed_episodes += 1,
             Outcome::Truncated => self.stats.truncated_episodes += 1,
         }
-        self.filter.end(outcome)
+        match &mut self.gate {
+            Gate::Dtw => self.filter.end(outcome),
+            Gate::Classifier(c) => {
+                c.end(outcome);
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Whether the trigger ends the episode before `action` runs from the current state.
+    fn decide(&mut self, action: &[f64]) -> Result<bool> {
+        self.last_score = None;
+        let filtered = match &mut self.gate {
+            Gate::Dtw => {
+                let decision = self.filter.push(&self.obs, action)?;
+                self.last_decision = Some(decision);
+                return Ok(decision.filtered);
+            }
+            Gate::Margin { threshold } => {
+                let p = self.inner.failure_proximity(&self.obs).unwrap_or(0.0);
+                self.last_score = Some(p);
+                p > *threshold
+            }
+            Gate::Violation { limit } => {
+                self.last_score = Some(self.episode_cost);
+                self.episode_cost > *limit
+            }
+            Gate::RiskCritic(signal) => {
+                let raised = signal
+                    .as_ref()
+                    .ok_or_else(|| {
+                        DefenderError::Config(
+                            "trigger = \"risk-critic\" needs a Recovery RL agent's signal \
+                             (DefenderEnv::set_risk_signal): none was set"
+                                .into(),
+                        )
+                    })?
+                    .take();
+                self.last_score = Some(if raised { 1.0 } else { 0.0 });
+                raised
+            }
+            Gate::Classifier(c) => {
+                let p = c.push(&self.obs, action)?;
+                self.last_score = Some(p);
+                p > c.options().threshold
+            }
+        };
+        Ok(filtered)
     }
 }
 
@@ -344,7 +463,11 @@ impl<E: Env> Env for DefenderEnv<E> {
         let obs = self.inner.reset(seed)?;
         self.inner.observation_space().check("observation from reset", &obs)?;
         self.obs.copy_from_slice(&obs);
-        self.filter.begin(&obs);
+        match &mut self.gate {
+            Gate::Dtw => self.filter.begin(&obs),
+            Gate::Classifier(c) => c.begin(),
+            _ => {}
+        }
         self.needs_reset = false;
         self.episode_steps = 0;
         self.episode_cost = 0.0;
@@ -358,11 +481,10 @@ impl<E: Env> Env for DefenderEnv<E> {
         }
         self.inner.action_space().check("action", action)?;
         // tau <- tau + s_t (or (s_t, a_t)); Safe(tau) < Unsafe(tau) ?
-        let decision = self.filter.push(&self.obs, action).map_err(env_error)?;
-        self.last_decision = Some(decision);
+        let filtered = self.decide(action).map_err(env_error)?;
         self.stats.steps += 1;
         self.episode_steps += 1;
-        if decision.filtered {
+        if filtered {
             // s', r, done = theta(s, a), R_task, True: the action never reaches the environment.
             self.dynamics
                 .model()
@@ -393,10 +515,14 @@ impl<E: Env> Env for DefenderEnv<E> {
         // is not a transition of the task.
         if !step.info.unstable && step.obs.iter().all(|v| v.is_finite()) && step.obs.len() == self.obs.len() {
             self.dynamics.observe(&self.obs, action, &step.obs).map_err(env_error)?;
-            self.filter.executed(action, step.reward, &step.obs).map_err(env_error)?;
+            if matches!(self.gate, Gate::Dtw) {
+                self.filter.executed(action, step.reward, &step.obs).map_err(env_error)?;
+            }
             self.obs.copy_from_slice(&step.obs);
         }
-        self.filter.real_step(step.cost, step.terminated);
+        if matches!(self.gate, Gate::Dtw) {
+            self.filter.real_step(step.cost, step.terminated);
+        }
         if step.terminated {
             self.end_episode(Outcome::Crashed).map_err(env_error)?;
         } else if step.truncated {
@@ -421,6 +547,9 @@ impl<E: Env> Env for DefenderEnv<E> {
             .map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
         std::fs::write(&stats_path, text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
         self.filter.save(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
+        if let Gate::Classifier(c) = &self.gate {
+            c.save(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
+        }
         let inner = dir.join("inner");
         std::fs::create_dir_all(&inner).map_err(|e| state_err(inner.clone(), e.to_string()))?;
         self.inner.save_state(&inner)
@@ -437,6 +566,9 @@ impl<E: Env> Env for DefenderEnv<E> {
         self.stats =
             serde_json::from_slice(&text).map_err(|e| state_err(stats_path.clone(), e.to_string()))?;
         self.filter.load(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
+        if let Gate::Classifier(c) = &mut self.gate {
+            c.load(dir).map_err(|e| state_err(dir.to_path_buf(), e.to_string()))?;
+        }
         self.needs_reset = true;
         self.inner.load_state(&dir.join("inner"))
     }
@@ -444,6 +576,25 @@ impl<E: Env> Env for DefenderEnv<E> {
     /// The filter as it stands, copied ([`crate::FilterShield`]): evaluations keep it without
     /// touching this one, which sees training steps only.
     fn shield(&self) -> Option<Box<dyn defender_rl::Shield>> {
-        Some(Box::new(crate::shield::FilterShield::new(self.filter.filter().clone())))
+        match &self.gate {
+            Gate::Dtw => Some(Box::new(crate::shield::FilterShield::new(self.filter.filter().clone()))),
+            Gate::Margin { threshold } => {
+                Some(Box::new(crate::shield::MarginShield::new(self.inner.fork()?, *threshold)))
+            }
+            Gate::Classifier(c) => Some(Box::new(crate::shield::ClassifierShield::new((**c).clone()))),
+            // The risk critic lives in the agent, and the violation needs the costs: neither is
+            // a shield of (observation, action).
+            Gate::RiskCritic(_) | Gate::Violation { .. } => None,
+        }
+    }
+
+    /// The wrapped simulator as it stands: after a filtered step, the state the action was
+    /// not executed from.
+    fn fork(&self) -> Option<Box<dyn Env>> {
+        self.inner.fork()
+    }
+
+    fn failure_proximity(&self, obs: &[f64]) -> Option<f64> {
+        self.inner.failure_proximity(obs)
     }
 }

@@ -17,6 +17,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{DefenderError, Result};
+use crate::trigger::{ClassifierOptions, TriggerKind};
 
 /// The largest margin a budget may reach: at `1 - 0.99 = 0.01` of the safe cost hardly any step
 /// is filtered, which is as far as "filter less" needs to go.
@@ -32,9 +33,22 @@ pub struct FilterOptions {
     /// The filtered-rate budget (adapts the margin).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub budget: Option<Budget>,
-    /// The agent's own episodes join the demonstrations.
+    /// The agent's own episodes join the demonstrations (with the `classifier` trigger: its
+    /// training data, treated the same way).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub own_episodes: Option<OwnEpisodes>,
+    /// What decides to end the episode (crate::trigger; `dtw`, the default, is the filter the
+    /// options above refine).
+    #[serde(default, skip_serializing_if = "TriggerKind::is_dtw")]
+    pub trigger: TriggerKind,
+    /// The `margin` trigger's margin in (0, 1): the episode ends when the state's failure
+    /// proximity (0 at the initial state, 1 on the task's failure boundary) passes
+    /// `1 - task_margin`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task_margin: Option<f64>,
+    /// The `classifier` trigger's settings (its defaults when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classifier: Option<ClassifierOptions>,
 }
 
 /// `[defender.filter.budget]`: after each episode the margin moves by
@@ -68,7 +82,7 @@ impl FilterOptions {
     /// screen of docs/results-keeps-learning.md and fixed before its runs: a margin of 0.02 and
     /// the agent's own episodes joining the demonstrations, 50 per group.
     pub fn keeps_learning() -> Self {
-        Self { margin: 0.02, budget: None, own_episodes: Some(OwnEpisodes { keep: 50 }) }
+        Self { margin: 0.02, own_episodes: Some(OwnEpisodes { keep: 50 }), ..Self::default() }
     }
 
     /// True when nothing differs from SPEC section 4's filter.
@@ -114,6 +128,34 @@ impl FilterOptions {
                         (or leave the section out)"
                 .into());
         }
+        match (self.trigger, self.task_margin) {
+            (TriggerKind::Margin, None) => {
+                return bad("[defender.filter] trigger = \"margin\" needs task_margin, in (0, 1): the \
+                            episode ends when the state's failure proximity passes 1 - task_margin"
+                    .into());
+            }
+            (TriggerKind::Margin, Some(m)) if !(m.is_finite() && m > 0.0 && m < 1.0) => {
+                return bad(format!("[defender.filter] task_margin = {m}: it must be in (0, 1)"));
+            }
+            (TriggerKind::Margin, _) | (_, None) => {}
+            (other, Some(_)) => {
+                return bad(format!(
+                    "[defender.filter] task_margin is the margin trigger's; trigger = \"{}\" does not read it",
+                    other.as_str()
+                ));
+            }
+        }
+        if let Some(c) = self.classifier {
+            if self.trigger != TriggerKind::Classifier {
+                return bad(format!(
+                    "[defender.filter.classifier] is the classifier trigger's; trigger = \"{}\" does not read it",
+                    self.trigger.as_str()
+                ));
+            }
+            c.validate().map_err(DefenderError::Config)?;
+        }
+        // margin and budget refine the DTW filter and are not read by the other triggers (a
+        // profile fills margin whatever the trigger).
         Ok(())
     }
 
@@ -129,6 +171,15 @@ impl FilterOptions {
         }
         if let Some(o) = self.own_episodes {
             parts.push(format!("own{}", o.keep));
+        }
+        match self.trigger {
+            TriggerKind::Dtw => {}
+            TriggerKind::Margin => parts.push(format!("margin-trigger{}", self.task_margin.unwrap_or(0.0))),
+            TriggerKind::Classifier => {
+                let c = self.classifier.unwrap_or_default();
+                parts.push(format!("classifier-p{}-h{}", c.threshold, c.horizon));
+            }
+            other => parts.push(other.as_str().to_string()),
         }
         if parts.is_empty() { "spec".into() } else { parts.join("+") }
     }

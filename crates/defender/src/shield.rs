@@ -40,3 +40,55 @@ impl Shield for FilterShield {
         }
     }
 }
+
+/// The `margin` trigger as a shield: a step is allowed while the state's failure proximity
+/// stays at or below the threshold (`1 - task_margin`). It reads the proximity from a copy of
+/// the task, whose simulator it never steps.
+pub struct MarginShield {
+    task: Box<dyn defender_rl::Env>,
+    threshold: f64,
+}
+
+impl MarginShield {
+    /// The shield of a `margin` trigger over `task` (any copy of the task: only its failure
+    /// condition is read).
+    pub fn new(task: Box<dyn defender_rl::Env>, threshold: f64) -> Self {
+        Self { task, threshold }
+    }
+}
+
+impl Shield for MarginShield {
+    fn reset(&mut self) {}
+
+    fn allows(&mut self, obs: &[f64], _action: &[f64]) -> defender_rl::Result<bool> {
+        Ok(self.task.failure_proximity(obs).is_none_or(|p| p <= self.threshold))
+    }
+}
+
+/// The `classifier` trigger as a shield: a copy of the classifier as it stood, allowing a step
+/// while its probability stays at or below the threshold.
+#[derive(Debug, Clone)]
+pub struct ClassifierShield {
+    classifier: crate::classifier::Classifier,
+}
+
+impl ClassifierShield {
+    /// The shield that decides as `classifier` (a copy of it).
+    pub fn new(classifier: crate::classifier::Classifier) -> Self {
+        Self { classifier }
+    }
+}
+
+impl Shield for ClassifierShield {
+    fn reset(&mut self) {
+        self.classifier.begin();
+    }
+
+    fn allows(&mut self, obs: &[f64], action: &[f64]) -> defender_rl::Result<bool> {
+        let threshold = self.classifier.options().threshold;
+        match self.classifier.push(obs, action) {
+            Ok(p) => Ok(p <= threshold),
+            Err(e) => Err(EnvError::Simulator(format!("DEFENDER's shield: {e}"))),
+        }
+    }
+}

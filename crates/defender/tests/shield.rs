@@ -43,6 +43,15 @@ impl Agent for Constant {
         action[0] = SPEED;
         Ok(())
     }
+    fn act_with(
+        &mut self,
+        _obs: &[f64],
+        _rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError> {
+        action[0] = SPEED;
+        Ok(())
+    }
     fn observe(&mut self, _transition: &Transition<'_>) -> Result<(), RlError> {
         self.steps += 1;
         Ok(())

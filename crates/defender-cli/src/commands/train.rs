@@ -50,6 +50,7 @@ fn resolve(args: &TrainArgs) -> Result<RunConfig> {
             td3: None,
             safety: None,
             log: Default::default(),
+            counterfactual: Default::default(),
         },
     };
     let config = apply_flags(config, args)?;
@@ -298,6 +299,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
     trainer_config.eval_episodes = config.eval_episodes;
     trainer_config.checkpoint_every_episodes = config.checkpoint_every_episodes;
     trainer_config.checkpoint_every_seconds = config.checkpoint_every_seconds;
+    trainer_config.counterfactual = config.counterfactual;
+    // A cost task's failure is passing its limit (the run's, resolved by setup), not a fall.
+    trainer_config.counterfactual.cost_limit = config.defender.as_ref().and_then(|d| d.episode_cost_limit);
 
     let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
         .with_checkpoint_dir(&checkpoint_dir);
@@ -340,6 +344,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
         }
     }
     print_summary(&args.out, &summary, &config, trainer.evaluations(), matches!(end, RunEnd::Stopped));
+    if config.defender.is_some() {
+        say!("{}", crate::intervention_line::line(trainer.episodes(), trainer.interventions()));
+    }
     match (&end, stop.exit_code()) {
         (RunEnd::Stopped, Some(code)) => Err(Stopped { code }.into()),
         _ => Ok(()),
@@ -593,6 +600,10 @@ impl Hooks for TrainHooks {
             self.counts.filtered_pct()
         ));
         Ok(())
+    }
+
+    fn on_intervention(&mut self, record: &defender_rl::InterventionRecord) -> Result<(), HookError> {
+        Ok(self.run_dir.append_intervention(record)?)
     }
 
     fn on_evaluation(&mut self, record: &EvalRecord) -> Result<(), HookError> {

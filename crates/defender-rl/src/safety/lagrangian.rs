@@ -230,6 +230,14 @@ impl Agent for LagrangianSac {
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         self.sac.act(obs, deterministic, action)
     }
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError> {
+        self.sac.act_with(obs, rng, action)
+    }
 
     /// Stores the transition, and sums the episode's cost: at its end (terminated or truncated,
     /// a filtered step included) the multiplier steps unless SAC is still warming up.

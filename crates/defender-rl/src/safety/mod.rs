@@ -23,6 +23,7 @@ pub mod recovery;
 mod recovery_policy;
 mod risk_batches;
 mod risk_critic;
+pub mod risk_signal;
 
 use serde::{Deserialize, Serialize};
 

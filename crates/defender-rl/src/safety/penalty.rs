@@ -42,6 +42,14 @@ impl<A: Agent> Agent for Penalized<A> {
     fn act(&mut self, obs: &[f64], deterministic: bool, action: &mut [f32]) -> Result<(), RlError> {
         self.inner.act(obs, deterministic, action)
     }
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError> {
+        self.inner.act_with(obs, rng, action)
+    }
     fn observe(&mut self, transition: &Transition<'_>) -> Result<(), RlError> {
         let t = self.penalised(transition);
         self.inner.observe(&t)

@@ -73,6 +73,12 @@ pub struct Recovery {
     recovery_steps: u64,
     proposal: Proposal,
     obs1: Vec<f32>,
+    /// The `risk-critic` trigger: raised for a risky proposal instead of acting with the recovery
+    /// policy (`None`: Recovery RL as published).
+    end_signal: Option<super::risk_signal::RiskSignal>,
+    /// The last proposal raised the signal: its transition never happened (the environment ended
+    /// the episode without executing it) and stays out of the safety critic's buffer.
+    ended: bool,
 }
 
 impl Recovery {
@@ -105,7 +111,18 @@ impl Recovery {
             recovery_steps: 0,
             proposal: Proposal { obs: vec![0.0; o], action: vec![0.0; a], live: false },
             obs1: vec![0.0; o],
+            end_signal: None,
+            ended: false,
         })
+    }
+
+    /// The safety critic as DEFENDER's `risk-critic` trigger (docs/SPEC.md, section 15): a risky
+    /// exploration action raises `signal` and is proposed unchanged, so that the environment
+    /// holding the signal ends the episode; the recovery policy never acts. The steps so ended
+    /// are counted as `recovery_steps`. The critic learns from executed steps only.
+    pub fn ending_episodes(mut self, signal: super::risk_signal::RiskSignal) -> Self {
+        self.end_signal = Some(signal);
+        self
     }
 
     /// The task agent.
@@ -187,11 +204,27 @@ impl Agent for Recovery {
         self.proposal.obs.copy_from_slice(obs);
         self.proposal.action.copy_from_slice(action);
         self.proposal.live = true;
-        if too_risky(self.risk.value(&self.obs1, action), self.config.eps_risk) {
+        let risky = too_risky(self.risk.value(&self.obs1, action), self.config.eps_risk);
+        if let Some(signal) = &self.end_signal {
+            signal.set(risky);
+            self.ended = risky;
+            self.recovery_steps += u64::from(risky);
+        } else if risky {
             self.risk.policy.act(&self.obs1, false, &mut self.risk.rng, action);
             self.recovery_steps += 1;
         }
         Ok(())
+    }
+
+    /// The task policy's exploration action (the counterfactual check runs only where the
+    /// recovery policy never acts: the `risk-critic` trigger).
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut rand_chacha::ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), RlError> {
+        self.task.act_with(obs, rng, action)
     }
 
     /// The task agent stores the action it proposed, the safety critic the one executed
@@ -203,6 +236,9 @@ impl Agent for Recovery {
         let task =
             if proposed { Transition { action: &self.proposal.action, ..*transition } } else { *transition };
         self.task.observe(&task)?;
+        if std::mem::take(&mut self.ended) && proposed {
+            return Ok(());
+        }
         self.risk.push(transition)
     }
 
@@ -270,6 +306,7 @@ impl Agent for Recovery {
         self.task_updates = state.task_updates;
         self.recovery_steps = state.recovery_steps;
         self.proposal.live = false;
+        self.ended = false;
         Ok(())
     }
 
