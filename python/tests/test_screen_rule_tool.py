@@ -1,5 +1,5 @@
-"""tools/analysis/screen_rule.py applies the written screen rules (docs/decisions-baselines.md, issue 48;
-docs/decisions-velocity.md, issue 49) to run directories: here hand-made ones whose measures are
+"""tools/analysis/screen_rule.py applies the written screen rules (docs/decisions-baselines.md and
+docs/decisions-velocity.md) to run directories: here hand-made ones whose measures are
 known, so that a wrong count, window or choice shows."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""tools/analysis/velocity_aim.py: issue 49's aim, decided per task from an arms.txt file, by the screen's
+"""tools/analysis/velocity_aim.py: the velocity aim, decided per task from an arms.txt file, by the screen's
 rule for the best Lagrangian; its three conditions checked on made-up arms either side of each
 bound, and end to end on committed velocity runs (known figures)."""
 
@@ -57,7 +57,8 @@ def test_committed_runs_decide_the_aim(binary, tmp_path):
                            "lagrangian-v1", "pid", "--defender", str(binary)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     out = done.stdout
-    # The default's 3 Hopper runs: 880 / 66.5, cost rate 0.109; issue 34's Lagrangian: 971 / 48.2, 0.187.
+    # The default's 3 Hopper runs: 880 / 66.5, cost rate 0.109; the first Lagrangian
+    # (lagrangian-v1): 971 / 48.2, 0.187.
     assert "best Lagrangian: lagrangian-v1" in out, out
     assert "evaluation cost 66.5 > the limit 25" in out, out
     assert "return 880 <= lagrangian-v1's 971" in out, out

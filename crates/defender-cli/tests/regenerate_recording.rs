@@ -1,4 +1,4 @@
-//! `tools/golden/regenerate-recording.sh` (issue 49: the screens read recordings that git ignores): it
+//! `tools/golden/regenerate-recording.sh` (the screens read recordings that git ignores): it
 //! trains a run's configuration again and regenerates its recording bit for bit, and says so
 //! only when the new run's episodes equal the committed run's.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
