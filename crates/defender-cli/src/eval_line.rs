@@ -64,6 +64,7 @@ mod tests {
             mean_cost: cost,
             episodes: 5,
             returns: vec![ret; 5],
+            costs: Vec::new(),
             is_final: false,
             shield: shield.map(|(r, c, f)| ShieldedEval {
                 mean_return: r,
@@ -72,6 +73,8 @@ mod tests {
                 mean_cost: c,
                 filtered: f,
                 returns: vec![r; 5],
+                costs: Vec::new(),
+                stopped: Vec::new(),
             }),
         }
     }

@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use defender_report::{
-    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, EvalShield,
-    INTERVENTIONS_FILE, INTERVENTIONS_HEADER, METRICS_FILE, METRICS_HEADER, SUMMARY_FILE, Summary,
-    UPDATES_FILE, UPDATES_HEADER, intervention_row, write_atomic,
+    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, EVAL_EPISODES_FILE, EVAL_EPISODES_HEADER, EVAL_FILE,
+    EVAL_HEADER, EpisodeRow, EvalRow, EvalShield, INTERVENTIONS_FILE, INTERVENTIONS_HEADER, METRICS_FILE,
+    METRICS_HEADER, SUMMARY_FILE, Summary, UPDATES_FILE, UPDATES_HEADER, eval_episode_rows, intervention_row,
+    write_atomic,
 };
 use defender_rl::{EpisodeRecord, EvalRecord, InterventionRecord};
 use serde::Serialize;
@@ -54,6 +55,8 @@ pub struct RunDir {
     metrics: File,
     eval: File,
     updates: File,
+    /// `eval_episodes.csv`.
+    eval_episodes: File,
     dynamics: Option<File>,
     /// `interventions.csv` (DEFENDER runs).
     interventions: Option<File>,
@@ -80,11 +83,15 @@ impl RunDir {
         let updates = Self::restart_csv(&root.join(UPDATES_FILE), UPDATES_HEADER, total_steps)?;
         let restart = |name: &str, header: &str| Self::restart_csv(&root.join(name), header, total_steps);
         let (dynamics, interventions) = if dynamics {
-            (Some(restart(DYNAMICS_FILE, DYNAMICS_HEADER)?), Some(restart(INTERVENTIONS_FILE, INTERVENTIONS_HEADER)?))
+            (
+                Some(restart(DYNAMICS_FILE, DYNAMICS_HEADER)?),
+                Some(restart(INTERVENTIONS_FILE, INTERVENTIONS_HEADER)?),
+            )
         } else {
             (None, None)
         };
-        Ok(Self { root: root.to_path_buf(), metrics, eval, updates, dynamics, interventions })
+        let eval_episodes = restart(EVAL_EPISODES_FILE, EVAL_EPISODES_HEADER)?;
+        Ok(Self { root: root.to_path_buf(), metrics, eval, updates, eval_episodes, dynamics, interventions })
     }
 
     /// Opens the files of a run being resumed as they are, so that nothing in them is lost
@@ -104,6 +111,7 @@ impl RunDir {
             metrics: open(METRICS_FILE)?,
             eval: open(EVAL_FILE)?,
             updates: open(UPDATES_FILE)?,
+            eval_episodes: open(EVAL_EPISODES_FILE)?,
             dynamics: if dynamics { Some(open(DYNAMICS_FILE)?) } else { None },
             interventions: if dynamics { Some(open(INTERVENTIONS_FILE)?) } else { None },
         })
@@ -174,7 +182,12 @@ impl RunDir {
     pub fn append_eval(&mut self, record: &EvalRecord) -> Result<()> {
         writeln!(self.eval, "{}", eval_row(record).to_csv())
             .and_then(|()| self.eval.flush())
-            .with_context(|| format!("cannot append to {}", self.root.join(EVAL_FILE).display()))
+            .with_context(|| format!("cannot append to {}", self.root.join(EVAL_FILE).display()))?;
+        let rows = eval_episode_rows(record);
+        rows.iter()
+            .try_for_each(|row| writeln!(self.eval_episodes, "{row}"))
+            .and_then(|()| self.eval_episodes.flush())
+            .with_context(|| format!("cannot append to {}", self.root.join(EVAL_EPISODES_FILE).display()))
     }
 
     /// Writes `config.toml`.

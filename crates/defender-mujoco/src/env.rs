@@ -299,7 +299,13 @@ const IDP_TIP_MIN: f64 = 1.0;
 /// How far `v` has gone from `init` toward the boundaries `lo < init < hi`: 0 at `init`, 1 on a
 /// boundary (an infinite boundary is never approached).
 fn toward(v: f64, init: f64, (lo, hi): (f64, f64)) -> f64 {
-    if v < init { (init - v) / (init - lo) } else if hi.is_finite() { (v - init) / (hi - init) } else { 0.0 }
+    if v < init {
+        (init - v) / (init - lo)
+    } else if hi.is_finite() {
+        (v - init) / (hi - init)
+    } else {
+        0.0
+    }
 }
 
 /// [`Env::failure_proximity`] of an observation of `body` (columns as [`MujocoEnv::observation`]

@@ -65,6 +65,28 @@ impl EvalRow {
     }
 }
 
+/// Every evaluation episode, one row each (the evaluation's mean hides whether 20 of 20 episodes
+/// kept a limit or 15 did): written by `defender train`, read by the tools that judge a limit.
+pub const EVAL_EPISODES_FILE: &str = "eval_episodes.csv";
+/// Its header; the shield's columns are empty for a run without a filter.
+pub const EVAL_EPISODES_HEADER: &str =
+    "total_steps,episode,return,cost,shield_return,shield_cost,shield_stopped";
+
+/// The rows of `eval_episodes.csv` for one evaluation (none for a record that kept no
+/// per-episode costs).
+pub fn eval_episode_rows(r: &defender_rl::EvalRecord) -> Vec<String> {
+    let shield =
+        r.shield.as_ref().filter(|s| s.costs.len() == r.costs.len() && s.stopped.len() == r.costs.len());
+    (0..r.costs.len())
+        .map(|k| {
+            let shielded = shield.map_or(",,".to_string(), |s| {
+                format!("{},{},{}", s.returns[k], s.costs[k], u8::from(s.stopped[k]))
+            });
+            format!("{},{k},{},{},{shielded}", r.total_steps, r.returns[k], r.costs[k])
+        })
+        .collect()
+}
+
 const EVAL_COLUMNS: &[&str] = &["total_steps", "mean_return", "std_return", "mean_length", "episodes"];
 
 /// The shield's columns, in [`EvalShield`]'s order.

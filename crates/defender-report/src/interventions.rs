@@ -121,7 +121,8 @@ mod tests {
     fn a_record_round_trips_and_the_summary_counts_what_it_should() {
         let mut r = InterventionRecord::new(3, 7, 1200, 40, 0.0);
         let unchecked = intervention_row(&r);
-        (r.checked, r.would_fail, r.steps_to_failure, r.continuation_steps) = (true, Some(true), Some(12), 12);
+        (r.checked, r.would_fail, r.steps_to_failure, r.continuation_steps) =
+            (true, Some(true), Some(12), 12);
         let failed = intervention_row(&r);
         (r.would_fail, r.steps_to_failure, r.continuation_steps) = (Some(false), None, 960);
         let survived = intervention_row(&r);

@@ -45,9 +45,10 @@ pub use measures::{LAST_EVALUATIONS, STANDING_TOLERANCE, horizon, is_standing};
 pub use plot::{PlotKind, PlotOptions, Plots, draw_plots};
 pub use render::{Format, render};
 pub use run::{
-    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, DefenderSettings, EVAL_FILE, EVAL_HEADER, EpisodeRow,
-    EvalRow, EvalShield, METRICS_FILE, METRICS_HEADER, OutcomeCounts, Run, RunSettings, SUMMARY_FILE,
-    StrategySelection, Summary, UPDATES_FILE, UPDATES_HEADER,
+    CONFIG_FILE, DYNAMICS_FILE, DYNAMICS_HEADER, DefenderSettings, EVAL_EPISODES_FILE, EVAL_EPISODES_HEADER,
+    EVAL_FILE, EVAL_HEADER, EpisodeRow, EvalRow, EvalShield, METRICS_FILE, METRICS_HEADER, OutcomeCounts,
+    Run, RunSettings, SUMMARY_FILE, StrategySelection, Summary, UPDATES_FILE, UPDATES_HEADER,
+    eval_episode_rows,
 };
 pub use shield::ShieldColumns;
 pub use stats::{Estimate, Stat, interpolate, linspace, rolling_mean};

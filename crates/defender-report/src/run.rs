@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::csv::CsvFile;
 use crate::error::{ReportError, Result};
 use crate::eval_csv::parse_eval;
-pub use crate::eval_csv::{EVAL_HEADER, EvalRow, EvalShield};
+pub use crate::eval_csv::{
+    EVAL_EPISODES_FILE, EVAL_EPISODES_HEADER, EVAL_HEADER, EvalRow, EvalShield, eval_episode_rows,
+};
 pub use crate::label::algo_display;
 pub(crate) use crate::label::{RawAgent, algo_label, label_parts};
 

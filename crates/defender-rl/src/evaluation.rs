@@ -41,6 +41,9 @@ pub struct EvalRecord {
     pub episodes: usize,
     /// Each episode's return.
     pub returns: Vec<f64>,
+    /// Each episode's cost (empty in records written before they were kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub costs: Vec<f64>,
     /// This is the end-of-training evaluation.
     pub is_final: bool,
     /// The same episodes with the training environment's shield kept; `None` for a run without
@@ -65,15 +68,22 @@ pub struct ShieldedEval {
     pub filtered: f64,
     /// Each episode's return.
     pub returns: Vec<f64>,
+    /// Each episode's cost over its executed steps (empty in records written before).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub costs: Vec<f64>,
+    /// Whether the shield stopped each episode (empty in records written before).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stopped: Vec<bool>,
 }
 
 /// The sums of one pass over the evaluation's seeds.
 struct Pass {
     returns: Vec<f64>,
     lengths: Vec<f64>,
+    costs: Vec<f64>,
     /// Summed over every step of every episode, in order (as the first evaluations did).
     total_cost: f64,
-    stopped: usize,
+    stopped: Vec<bool>,
 }
 
 impl Pass {
@@ -124,8 +134,10 @@ impl<A: Agent + ?Sized, V: Env + ?Sized> Evaluator<'_, A, V> {
                     std_return: pass.std_return(),
                     mean_length: pass.mean_length(),
                     mean_cost: pass.mean_cost(),
-                    filtered: pass.stopped as f64 / seeds.len() as f64,
+                    filtered: pass.stopped.iter().filter(|&&s| s).count() as f64 / seeds.len() as f64,
                     returns: pass.returns,
+                    costs: pass.costs,
+                    stopped: pass.stopped,
                 })
             }
             None => None,
@@ -138,6 +150,7 @@ impl<A: Agent + ?Sized, V: Env + ?Sized> Evaluator<'_, A, V> {
             mean_cost: Some(plain.mean_cost()),
             episodes: seeds.len(),
             returns: plain.returns,
+            costs: plain.costs,
             is_final,
             shield,
         })
@@ -152,27 +165,29 @@ impl<A: Agent + ?Sized, V: Env + ?Sized> Evaluator<'_, A, V> {
         let mut pass = Pass {
             returns: Vec::with_capacity(seeds.len()),
             lengths: Vec::with_capacity(seeds.len()),
+            costs: Vec::with_capacity(seeds.len()),
             total_cost: 0.0,
-            stopped: 0,
+            stopped: Vec::with_capacity(seeds.len()),
         };
         for &seed in seeds {
             let mut obs = self.env.reset(Some(seed))?;
             if let Some(shield) = shield.as_deref_mut() {
                 shield.reset();
             }
-            let (mut ret, mut len) = (0.0, 0u64);
+            let (mut ret, mut len, mut cost, mut stopped) = (0.0, 0u64, 0.0, false);
             loop {
                 self.agent.act(&obs, true, &mut action)?;
                 self.action_space.unscale(&action, &mut env_action);
                 if let Some(shield) = shield.as_deref_mut()
                     && !shield.allows(&obs, &env_action)?
                 {
-                    pass.stopped += 1;
+                    stopped = true;
                     break;
                 }
                 let step = self.env.step(&env_action)?;
                 ret += step.reward;
                 pass.total_cost += step.cost;
+                cost += step.cost;
                 len += 1;
                 if step.done() {
                     break;
@@ -181,6 +196,8 @@ impl<A: Agent + ?Sized, V: Env + ?Sized> Evaluator<'_, A, V> {
             }
             pass.returns.push(ret);
             pass.lengths.push(len as f64);
+            pass.costs.push(cost);
+            pass.stopped.push(stopped);
         }
         Ok(pass)
     }
@@ -206,6 +223,8 @@ mod tests {
                 mean_cost: 0.5,
                 filtered: 0.5,
                 returns: vec![1.0, 1.0],
+                costs: vec![0.0, 1.0],
+                stopped: vec![true, false],
             }),
             ..record
         };

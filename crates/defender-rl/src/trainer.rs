@@ -303,6 +303,7 @@ struct TrainerState {
 
 /// How [`Trainer::run`] ended.
 #[derive(Debug, Clone, PartialEq)]
+#[allow(clippy::large_enum_variant, reason = "returned once per run: boxing would buy nothing")]
 pub enum RunEnd {
     /// The budget was spent; the final evaluation is attached.
     Complete(EvalRecord),

@@ -252,7 +252,13 @@ impl Classifier {
                     0 => &self.demos[pick.1 as usize],
                     g => &self.own[usize::from(g - 1)][pick.1 as usize],
                 };
-                window_into(&ep.elements, d, pick.2 as usize, w, &mut self.batch_x[r * inputs..(r + 1) * inputs]);
+                window_into(
+                    &ep.elements,
+                    d,
+                    pick.2 as usize,
+                    w,
+                    &mut self.batch_x[r * inputs..(r + 1) * inputs],
+                );
                 self.batch_y[r] = class as f32;
             }
             self.net.zero_grad();

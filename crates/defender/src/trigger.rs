@@ -141,9 +141,13 @@ impl ClassifierOptions {
 pub(crate) enum Gate {
     Dtw,
     /// Ends when the failure proximity passes `threshold` (`1 - task_margin`).
-    Margin { threshold: f64 },
+    Margin {
+        threshold: f64,
+    },
     /// Ends once the episode's cost has passed `limit`.
-    Violation { limit: f64 },
+    Violation {
+        limit: f64,
+    },
     /// Ends when the agent raised the signal (set by `DefenderEnv::set_risk_signal`).
     RiskCritic(Option<RiskSignal>),
     Classifier(Box<crate::classifier::Classifier>),

@@ -132,6 +132,7 @@ fn every_variant_resumes_from_a_checkpoint_bit_for_bit() {
         margin: 0.05,
         budget: Some(Budget { share: 0.3, episodes: 5 }),
         own_episodes: Some(OwnEpisodes { keep: 3 }),
+        ..FilterOptions::default()
     };
     let mut straight = env(all);
     let whole = play(&mut straight, 0..12);

@@ -164,6 +164,13 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         || args.own_episodes.is_some()
         || args.dynamics_thread
         || args.dynamics_spec_schedule;
+    if args.wants_trigger() && config.defender.is_none() {
+        // A trigger other than DTW reads no strategy; the default keeps the section valid.
+        let strategy = args.strategy.unwrap_or(defender::selection::StrategyChoice::Fixed(
+            defender::DefenderConfig::default().strategy,
+        ));
+        config.defender = Some(DefenderSection::new(strategy));
+    }
     if wants_defender && config.defender.is_none() {
         let strategy = args.strategy.context(
             "--demos, --num-demos, --mode, --r-task, --charge-filtered, --margin, --filter-budget, --own-episodes, \
@@ -172,6 +179,7 @@ fn apply_flags(mut config: RunConfig, args: &TrainArgs) -> Result<RunConfig> {
         )?;
         config.defender = Some(DefenderSection::new(strategy));
     }
+    args.apply_trigger_and_counts(&mut config);
     if let Some(section) = &mut config.defender {
         apply_defender_flags(section, args);
     } else if args.learn_from_demos && args.demos.is_some() {

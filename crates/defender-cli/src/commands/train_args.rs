@@ -65,6 +65,34 @@ pub struct TrainArgs {
     /// ([defender.filter.own_episodes] keep).
     #[arg(long, value_name = "K", value_parser = toml_usize)]
     pub own_episodes: Option<usize>,
+    /// What decides to end the episode: dtw (the default, SPEC's filter), classifier,
+    /// risk-critic (with --recovery: Recovery RL's safety critic), margin (the task's failure
+    /// condition tightened by --task-margin) or violation (a cost task's limit passed)
+    /// ([defender.filter] trigger; docs/SPEC.md section 15). Without --strategy, a trigger other
+    /// than dtw takes the default strategy, which it does not read.
+    #[arg(long, value_name = "NAME", value_parser = parse_trigger)]
+    pub trigger: Option<defender::TriggerKind>,
+    /// The margin trigger's margin M in (0, 1): the episode ends when a state is past 1 - M of
+    /// the way from the initial state to the task's failure boundary ([defender.filter]
+    /// task_margin).
+    #[arg(long, value_name = "M")]
+    pub task_margin: Option<f64>,
+    /// The classifier trigger's threshold on its probability of a failure within the horizon
+    /// ([defender.filter.classifier] threshold; default 0.5).
+    #[arg(long, value_name = "P")]
+    pub classifier_threshold: Option<f64>,
+    /// The classifier trigger's horizon H: a demonstration's step is unsafe when its failure is at
+    /// most H steps ahead ([defender.filter.classifier] horizon; default 20).
+    #[arg(long, value_name = "H", value_parser = toml_usize)]
+    pub classifier_horizon: Option<usize>,
+    /// Check every K-th intervention against what would have happened: the simulator copied,
+    /// the stopped action run, the policy going on unfiltered to the horizon; written to
+    /// interventions.csv ([counterfactual] every; 1 checks them all).
+    #[arg(long, value_name = "K", value_parser = toml_u64)]
+    pub check_every: Option<u64>,
+    /// Episodes of each periodic evaluation (default 5; each keeps its per-episode rows).
+    #[arg(long, value_name = "N", value_parser = toml_usize)]
+    pub eval_episodes: Option<usize>,
     /// Train DEFENDER's dynamics model on a thread of its own, on another core while the agent
     /// updates: same results bit for bit, less wall time when a core is free
     /// ([defender.dynamics] background = true). The default already when the networks use two
@@ -127,6 +155,43 @@ pub struct TrainArgs {
     /// shipped for the task.
     #[arg(long, help_heading = "Baselines")]
     pub learn_from_demos: bool,
+}
+
+impl TrainArgs {
+    /// Whether a trigger flag asks for DEFENDER.
+    pub fn wants_trigger(&self) -> bool {
+        self.trigger.is_some()
+            || self.task_margin.is_some()
+            || self.classifier_threshold.is_some()
+            || self.classifier_horizon.is_some()
+    }
+
+    /// The trigger flags over a `[defender]` section, and the counts of evaluation episodes and
+    /// checks over the run.
+    pub fn apply_trigger_and_counts(&self, config: &mut defender_config::run_config::RunConfig) {
+        if let Some(n) = self.eval_episodes {
+            config.eval_episodes = n;
+        }
+        if let Some(k) = self.check_every {
+            config.counterfactual.every = k;
+        }
+        let Some(filter) = config.defender.as_mut().map(|d| &mut d.filter) else { return };
+        if let Some(trigger) = self.trigger {
+            filter.trigger = trigger;
+        }
+        if self.task_margin.is_some() {
+            filter.task_margin = self.task_margin;
+        }
+        if self.classifier_threshold.is_some() || self.classifier_horizon.is_some() {
+            let c = filter.classifier.get_or_insert_with(Default::default);
+            c.threshold = self.classifier_threshold.unwrap_or(c.threshold);
+            c.horizon = self.classifier_horizon.unwrap_or(c.horizon);
+        }
+    }
+}
+
+fn parse_trigger(s: &str) -> Result<defender::TriggerKind, String> {
+    s.parse()
 }
 
 fn parse_algo(s: &str) -> Result<Algo, String> {
