@@ -178,12 +178,17 @@ impl RunConfig {
             td3.validate().context("[td3]")?;
         }
         if let Some(d) = &self.defender
-            && d.filtered_cost == defender::FilteredCost::Violation
+            && !d.filtered_cost.is_none()
             && self.safety.is_none()
         {
             bail!(
-                "[defender] filtered_cost = \"violation\" charges the learner a cost, and this run's \
-                 learner ignores costs: add a [safety] section (e.g. --lagrangian or --pid)"
+                "[defender] filtered_cost = \"{}\" charges the learner a cost, and this run's \
+                 learner ignores costs: add a [safety] section (e.g. --lagrangian or --pid)",
+                if d.filtered_cost == defender::FilteredCost::Violation {
+                    "violation"
+                } else {
+                    "continuation"
+                }
             );
         }
         if let Some(safety) = &self.safety {
@@ -241,6 +246,13 @@ impl RunConfig {
                     self.safety.as_ref().map_or("absent", |s| s.method())
                 );
             }
+            if d.filtered_cost == defender::FilteredCost::Continuation && self.counterfactual.every != 1 {
+                bail!(
+                    "[defender] filtered_cost = \"continuation\" charges the learner the checked continuation's \
+                     cost at every filtered step: it needs [counterfactual] every = 1 (--check-every 1), not {}",
+                    self.counterfactual.every
+                );
+            }
             if trigger == defender::TriggerKind::Violation && task_limit.or(d.episode_cost_limit).is_none() {
                 bail!(
                     "[defender.filter] trigger = \"violation\" ends an episode once its cost passes the limit: \
@@ -249,10 +261,15 @@ impl RunConfig {
             }
         }
         if let (Some(d), Some(safety)) = (&self.defender, &self.safety)
-            && d.filtered_cost == defender::FilteredCost::Violation
+            && !d.filtered_cost.is_none()
         {
-            // A filtered step is charged up to the episode limit plus one (1 on a crash task).
-            let charged = d.episode_cost_limit.or(task_limit).unwrap_or(0.0) + 1.0;
+            // A filtered step is charged up to the episode limit plus one (1 on a crash task);
+            // with the continuation's cost, up to one per step of the horizon (1000 on every
+            // shipped task).
+            let charged = match d.filtered_cost {
+                defender::FilteredCost::Continuation => 1000.0,
+                _ => d.episode_cost_limit.or(task_limit).unwrap_or(0.0) + 1.0,
+            };
             let cost_max = match safety {
                 defender_rl::SafetyConfig::Lagrangian(l) => Some(l.cost_max),
                 defender_rl::SafetyConfig::Pid(p) => Some(p.cost_max),
@@ -262,9 +279,15 @@ impl RunConfig {
                 && cost_max < charged
             {
                 bail!(
-                    "[safety] cost_max = {cost_max}: with [defender] filtered_cost = \"violation\" on \
-                     {env} a filtered step can cost the learner up to {charged} (the episode limit \
-                     plus one); set cost_max = {charged} (--cost-max {charged})"
+                    "[safety] cost_max = {cost_max}: with [defender] filtered_cost = \"{}\" on {env} a \
+                     filtered step can cost the learner up to {charged} (the episode limit plus one, or \
+                     one per step of the horizon for the continuation's cost); set cost_max = {charged} \
+                     (--cost-max {charged})",
+                    if d.filtered_cost == defender::FilteredCost::Violation {
+                        "violation"
+                    } else {
+                        "continuation"
+                    }
                 );
             }
         }

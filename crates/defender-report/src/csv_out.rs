@@ -14,7 +14,12 @@ use crate::table::Table;
 /// The shielded evaluation's columns (`shield_*`) are empty for a row without one (a bare row);
 /// its cost, `shield_eval_cost_last10_*`, is given on the tasks with a cost limit, as the
 /// evaluation cost is. `crashes_after_warmup_*` is empty for a row none of whose runs gives its
-/// warm-up (a peer library's run).
+/// warm-up (a peer library's run). `filtered_*` counts the training episodes DEFENDER ended
+/// over the run (empty for a row without a filter); the checked interventions' columns, from
+/// `interventions_seeds` on, are empty for a row without `interventions.csv` (they are over the
+/// `interventions_seeds` seeds that have it; `precision_*` empty when none was checked,
+/// `lead_median_steps_*` when no continuation failed, `interventions_per_crash_avoided` without
+/// a bare row or when the row does not crash less).
 pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
 n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
@@ -30,7 +35,11 @@ over_limit_pct_mean,over_limit_pct_std,over_limit_pct_ci_lo,over_limit_pct_ci_hi
 shield_eval_last10_mean,shield_eval_last10_std,shield_eval_last10_ci_lo,shield_eval_last10_ci_hi,\
 shield_ended_pct_mean,shield_ended_pct_std,shield_ended_pct_ci_lo,shield_ended_pct_ci_hi,\
 shield_eval_cost_last10_mean,shield_eval_cost_last10_std,shield_eval_cost_last10_ci_lo,shield_eval_cost_last10_ci_hi,\
-crashes_after_warmup_mean,crashes_after_warmup_std,crashes_after_warmup_ci_lo,crashes_after_warmup_ci_hi";
+crashes_after_warmup_mean,crashes_after_warmup_std,crashes_after_warmup_ci_lo,crashes_after_warmup_ci_hi,\
+filtered_mean,filtered_std,filtered_ci_lo,filtered_ci_hi,interventions_seeds,\
+checked_mean,checked_std,checked_ci_lo,checked_ci_hi,precision_mean,precision_std,precision_ci_lo,precision_ci_hi,\
+lead_median_steps_mean,lead_median_steps_std,lead_median_steps_ci_lo,lead_median_steps_ci_hi,\
+interventions_per_crash_avoided";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -113,6 +122,19 @@ pub(crate) fn csv(table: &Table) -> String {
         }
         fields.extend(mean_std(row.crashes_after_warmup.as_ref()));
         fields.extend(interval(row.crashes_after_warmup.as_ref()));
+        fields.extend(mean_std(row.filtered.as_ref()));
+        fields.extend(interval(row.filtered.as_ref()));
+        let checked = row.interventions.as_ref();
+        fields.push(checked.map(|c| c.seeds.to_string()).unwrap_or_default());
+        for e in [
+            checked.map(|c| &c.checked),
+            checked.and_then(|c| c.precision.as_ref()),
+            checked.and_then(|c| c.lead.as_ref()),
+        ] {
+            fields.extend(mean_std(e));
+            fields.extend(interval(e));
+        }
+        fields.push(checked.and_then(|c| c.per_crash_avoided).map(|v| v.to_string()).unwrap_or_default());
         let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
         out.push_str(&fields.join(","));
         out.push('\n');

@@ -9,7 +9,7 @@ use std::path::Path;
 use defender_rl::InterventionRecord;
 
 use crate::csv::CsvFile;
-use crate::error::Result;
+use crate::error::{ReportError, Result};
 
 /// The file's name in a run directory.
 pub const INTERVENTIONS_FILE: &str = "interventions.csv";
@@ -60,10 +60,16 @@ pub fn parse_interventions(path: &Path, text: &str) -> Result<Vec<InterventionRo
     let file = CsvFile::parse(path, text, INTERVENTIONS_HEADER, COLUMNS)?;
     let mut rows = Vec::new();
     for row in file.rows() {
-        let checked = row.get::<u8>(1)? == 1;
+        // Flags are 0 or 1: any other text is a writer's mistake, not a "no".
+        let flag = |k: usize, text: &str| match text {
+            "0" => Ok(false),
+            "1" => Ok(true),
+            _ => Err(row.error(format!("column {}: {text:?} is not 0 or 1", COLUMNS[k]))),
+        };
+        let checked = flag(1, row.text(1))?;
         let would_fail = match row.text(2) {
             "" => None,
-            t => Some(t == "1"),
+            t => Some(flag(2, t)?),
         };
         let steps_to_failure = match row.text(3) {
             "" => None,
@@ -75,6 +81,20 @@ pub fn parse_interventions(path: &Path, text: &str) -> Result<Vec<InterventionRo
         rows.push(InterventionRow { total_steps: row.get(0)?, checked, would_fail, steps_to_failure });
     }
     Ok(rows)
+}
+
+/// The interventions of the run directory `dir`, `None` when it has no `interventions.csv` (a
+/// run without DEFENDER, or one written before the file existed).
+///
+/// # Errors
+/// The file exists but cannot be read, or [`parse_interventions`] refuses it.
+pub(crate) fn load_interventions(dir: &Path) -> Result<Option<Vec<InterventionRow>>> {
+    let path = dir.join(INTERVENTIONS_FILE);
+    match defender_io::read_input_to_string(&path) {
+        Ok(text) => parse_interventions(&path, &text).map(Some),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(ReportError::Io { path, source }),
+    }
 }
 
 /// A run's interventions in short.

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{mode_title, pm, pm_to, sections, time};
+use crate::cells::{mode_title, number, pm, pm_to, sections, time};
 use crate::run::DefenderSettings;
 use crate::stats::Estimate;
 use crate::table::{Row, Table};
@@ -40,6 +40,41 @@ const PER_COST_TASK: usize = 4;
 /// % Shield-ended, and with a cost limit Shielded cost (last-10).
 const PER_SHIELD_TASK: usize = 2;
 
+/// Columns a task whose rows have checked interventions adds: Precision, Lead and
+/// Interventions / crash avoided (a task with a filter adds Filtered, beside Crashes).
+const PER_CHECKED_TASK: usize = 3;
+
+/// The optional column groups of one task's columns, by what its rows have.
+#[derive(Clone, Copy)]
+struct Extras {
+    limit: Option<f64>,
+    shield: bool,
+    filtered: bool,
+    checked: bool,
+}
+
+impl Extras {
+    fn of(rows: &[&Row], env: &str, budget: Budget) -> Self {
+        let task = || rows.iter().filter(|r| r.env == env && r.budget == budget);
+        Self {
+            limit: limit_of(rows, env, budget),
+            shield: shielded(rows, env, budget),
+            filtered: task().any(|r| r.filtered.is_some()),
+            checked: task().any(|r| r.interventions.is_some()),
+        }
+    }
+
+    /// The task's columns.
+    fn width(&self) -> usize {
+        let cost = if self.limit.is_some() { PER_COST_TASK + usize::from(self.shield) } else { 0 };
+        PER_TASK
+            + if self.shield { PER_SHIELD_TASK } else { 0 }
+            + usize::from(self.filtered)
+            + cost
+            + if self.checked { PER_CHECKED_TASK } else { 0 }
+    }
+}
+
 /// The episode cost limit of the rows of task `env` at `budget`, `None` for a crash task.
 fn limit_of(rows: &[&Row], env: &str, budget: Budget) -> Option<f64> {
     rows.iter().filter(|r| r.env == env && r.budget == budget).find_map(|r| r.costs.map(|c| c.limit))
@@ -69,18 +104,11 @@ pub(crate) fn latex(table: &Table) -> String {
                 tex_escape(env)
             }
         };
-        // A task with a cost limit has the cost columns too (before % Time).
-        let limits: Vec<Option<f64>> = columns.iter().map(|(e, b)| limit_of(&rows, e, *b)).collect();
-        let shields: Vec<bool> = columns.iter().map(|(e, b)| shielded(&rows, e, *b)).collect();
-        let widths: Vec<usize> = limits
-            .iter()
-            .zip(&shields)
-            .map(|(l, &sh)| {
-                let cost = if l.is_some() { PER_COST_TASK + usize::from(sh) } else { 0 };
-                PER_TASK + if sh { PER_SHIELD_TASK } else { 0 } + cost
-            })
-            .collect();
-        let cost_caption = if limits.iter().any(Option::is_some) {
+        // A task with a cost limit has the cost columns too (before % Time), and so on for the
+        // shielded evaluations, the filter's episodes and the checked interventions.
+        let extras: Vec<Extras> = columns.iter().map(|(e, b)| Extras::of(&rows, e, *b)).collect();
+        let widths: Vec<usize> = extras.iter().map(Extras::width).collect();
+        let cost_caption = if extras.iter().any(|x| x.limit.is_some()) {
             " Cost rate: total training cost / environment steps of training (filtered steps not \
              counted); Eval cost (last-10): mean evaluation cost over the last 10 evaluations; \
              Cost $>$ L: training episodes whose cost exceeds the episode cost limit L, over the run; \
@@ -88,7 +116,20 @@ pub(crate) fn latex(table: &Table) -> String {
         } else {
             ""
         };
-        let shield_caption = if shields.iter().any(|&s| s) {
+        let filtered_caption = if extras.iter().any(|x| x.filtered) {
+            " Filtered: training episodes the filter ended (interventions), over the run."
+        } else {
+            ""
+        };
+        let checked_caption = if extras.iter().any(|x| x.checked) {
+            " Precision: the share of the checked interventions whose unfiltered continuation failed; \
+             Lead: the median steps from an intervention to that failure; Int./crash avoided: \
+             interventions / (the bare row's crashes $-$ the row's crashes), - unless it crashes less; \
+             over the run."
+        } else {
+            ""
+        };
+        let shield_caption = if extras.iter().any(|x| x.shield) {
             " Shielded: each evaluation's episodes again (the same reset seeds) with the run's filter kept, \
              an episode stopping at the first step the filter refuses (its return and cost those of the \
              executed steps), over the last 10 evaluations; \\% Shield-ended: the share of those \
@@ -101,7 +142,7 @@ pub(crate) fn latex(table: &Table) -> String {
             "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
              (final eval): mean return of the final evaluation; Best episode: the best training-episode \
              return of a run (the paper's Acc Reward); \\% Crash: crashed / all training episodes; Crashes: crashed training \
-             episodes over the run; mean $\\pm$ std over seeds.{cost_caption}{shield_caption}}}\n\
+             episodes over the run; mean $\\pm$ std over seeds.{filtered_caption}{cost_caption}{checked_caption}{shield_caption}}}\n\
              \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
             tex_escape(mode_title(mode)),
             "l".repeat(labels),
@@ -118,18 +159,24 @@ pub(crate) fn latex(table: &Table) -> String {
             first += width;
         }
         out.push_str(if demos { "\nSafe & Unsafe & Demos" } else { "\nSafe & Unsafe" });
-        for (limit, &shield) in limits.iter().zip(&shields) {
+        for x in &extras {
             out.push_str(" & Acc Reward (final eval) & Best episode");
-            if shield {
+            if x.shield {
                 out.push_str(" & Shielded eval (last-10) & \\% Shield-ended");
             }
             out.push_str(" & \\% Crash & Crashes");
-            if let Some(limit) = limit {
-                let shielded_cost = if shield { " & Shielded cost (last-10)" } else { "" };
+            if x.filtered {
+                out.push_str(" & Filtered");
+            }
+            if let Some(limit) = x.limit {
+                let shielded_cost = if x.shield { " & Shielded cost (last-10)" } else { "" };
                 let _ = write!(
                     out,
                     " & Cost rate & Eval cost (last-10){shielded_cost} & Cost $>$ {limit} & \\% cost $>$ {limit}"
                 );
+            }
+            if x.checked {
+                out.push_str(" & Precision & Lead & Int./crash avoided");
             }
             out.push_str(" & \\% Time");
         }
@@ -161,9 +208,7 @@ pub(crate) fn latex(table: &Table) -> String {
                         }
                     }
                 }
-                for ((((env, budget), limit), &shield), width) in
-                    columns.iter().zip(&limits).zip(&shields).zip(&widths)
-                {
+                for (((env, budget), x), width) in columns.iter().zip(&extras).zip(&widths) {
                     let cell = rows.iter().find(|r| {
                         r.algo == algo && r.env == *env && r.budget == *budget && r.filter.as_ref() == filter
                     });
@@ -175,7 +220,7 @@ pub(crate) fn latex(table: &Table) -> String {
                                 pm(&r.acc_reward.stat, 0, "$\\pm$"),
                                 r.best_episode.map_or_else(|| "-".into(), |b| pm(&b.stat, 0, "$\\pm$")),
                             );
-                            if shield {
+                            if x.shield {
                                 let s = r.shield.as_ref();
                                 let _ = write!(
                                     out,
@@ -190,8 +235,14 @@ pub(crate) fn latex(table: &Table) -> String {
                                 pm(&r.crash_pct.stat, 0, "$\\pm$"),
                                 pm(&r.crashes.stat, 0, "$\\pm$"),
                             );
-                            if limit.is_some() {
-                                out.push_str(&cost_cells(r, shield));
+                            if x.filtered {
+                                let _ = write!(out, " & {}", estimate_cell(r.filtered.as_ref(), 0, 1));
+                            }
+                            if x.limit.is_some() {
+                                out.push_str(&cost_cells(r, x.shield));
+                            }
+                            if x.checked {
+                                out.push_str(&checked_cells(r));
                             }
                             let _ = write!(out, " & {}", time(r));
                         }
@@ -217,6 +268,18 @@ pub(crate) fn latex(table: &Table) -> String {
 /// the row does not have.
 fn estimate_cell(e: Option<&Estimate>, decimals: usize, std_decimals: usize) -> String {
     e.map_or_else(|| "-".to_string(), |e| pm_to(&e.stat, decimals, std_decimals, "$\\pm$"))
+}
+
+/// The checked interventions' cells of a row (Precision, Lead, Int./crash avoided), each starting
+/// with ` & `.
+fn checked_cells(row: &Row) -> String {
+    let c = row.interventions.as_ref();
+    format!(
+        " & {} & {} & {}",
+        estimate_cell(c.and_then(|c| c.precision.as_ref()), 2, 2),
+        estimate_cell(c.and_then(|c| c.lead.as_ref()), 1, 1),
+        c.and_then(|c| c.per_crash_avoided).map_or_else(|| "-".into(), |v| number(v, 1))
+    )
 }
 
 /// The cost cells of a row of a task with a cost limit, each starting with ` & ` (with the

@@ -11,6 +11,7 @@ mod discover;
 mod error;
 mod eval_csv;
 mod figure;
+mod intervention_columns;
 mod interventions;
 mod io;
 mod label;
@@ -36,6 +37,7 @@ pub use costs::{CostColumns, CostLimits};
 pub use csv_out::CSV_HEADER;
 pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
+pub use intervention_columns::InterventionColumns;
 pub use interventions::{
     INTERVENTIONS_FILE, INTERVENTIONS_HEADER, InterventionRow, InterventionSummary, intervention_row,
     parse_interventions,

@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 
 use defender_rl::Budget;
 
-use crate::cells::{demos_text, mode_title, pm_ci, pm_ci_or_dash, pm_ci_to, sections, time};
+use crate::cells::{demos_text, mode_title, number, pm_ci, pm_ci_or_dash, pm_ci_to, sections, time};
+use crate::intervention_columns::InterventionColumns;
 use crate::run::DefenderSettings;
 use crate::table::Table;
 
@@ -57,6 +58,27 @@ of those episodes that the filter ended, x 100, averaged the same way. Shielded 
 (tasks with a cost limit): their mean cost, as Eval cost (last-10). - for a row without a filter.
 ";
 
+/// What the filtered episodes' column means, printed under the legend when a table has it.
+const FILTERED_LEGEND: &str = "
+Filtered (interventions): training episodes DEFENDER ended before their action ran (metrics.csv's \
+outcome filtered: every trigger's interventions), counted over the run as Crashes is, mean ± std \
+over seeds; - for a row without a filter.
+";
+
+/// What the checked interventions' columns mean, printed when a table has them.
+const CHECKED_LEGEND: &str = "
+Checked interventions (runs with interventions.csv; docs/SPEC.md section 15), over the whole run: \
+Checked: interventions whose unfiltered continuation ran in a copy of the simulator. Precision: \
+the share of those whose continuation failed (a crash; on a cost task, the episode's cost passing \
+its limit), per run. Lead (median steps): per run, the median steps from an intervention to that \
+failure (the stopped action's step is 1). Interventions / crash avoided: the row's mean \
+interventions / (the bare row's mean crashes - the row's mean crashes), against the bare row of \
+the same task, budget and agent (the row's label less its filter's tags, else plain bare SAC or \
+TD3); - without such a row or when the row does not crash less. Each but the last is mean ± std [interval] over the seeds with \
+interventions.csv (Precision over those with a checked intervention, Lead over those with a \
+failure).
+";
+
 /// The Markdown report of `table`.
 pub(crate) fn markdown(table: &Table) -> String {
     let demos = table.varies_num_demos();
@@ -81,6 +103,10 @@ pub(crate) fn markdown(table: &Table) -> String {
             let shielded = rows().any(|r| r.shield.is_some());
             // Crashes after the learner's warm-up, when a row's runs say how long it was.
             let warmup = rows().any(|r| r.crashes_after_warmup.is_some());
+            // The filter's episodes beside the crashes, when a row has a filter; and what its
+            // interventions would have led to, when a row's runs checked them.
+            let filtered = rows().any(|r| r.filtered.is_some());
+            let checked = rows().any(|r| r.interventions.is_some());
             let over = limit.map(|l| format!("Episodes cost > {l}")).unwrap_or_default();
             let over_pct = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
             header.extend(["Acc Reward (final eval)", "Best episode (paper's Acc Reward)", "Last-10 eval"]);
@@ -88,6 +114,9 @@ pub(crate) fn markdown(table: &Table) -> String {
                 header.extend(["Shielded eval (last-10)", "% Shield-ended"]);
             }
             header.extend(["% Crash", "Crashes"]);
+            if filtered {
+                header.push("Filtered (interventions)");
+            }
             if warmup {
                 header.push("Crashes after warm-up");
             }
@@ -98,6 +127,14 @@ pub(crate) fn markdown(table: &Table) -> String {
                     header.push("Shielded cost (last-10)");
                 }
                 header.extend([over.as_str(), over_pct.as_str()]);
+            }
+            if checked {
+                header.extend([
+                    "Checked",
+                    "Precision",
+                    "Lead (median steps)",
+                    "Interventions / crash avoided",
+                ]);
             }
             header.extend(["Standing %", "% Time", "Seeds"]);
             let mut cells = vec![header.iter().map(|s| s.to_string()).collect::<Vec<_>>()];
@@ -123,6 +160,9 @@ pub(crate) fn markdown(table: &Table) -> String {
                     ]);
                 }
                 line.extend([pm_ci(&row.crash_pct, 1), pm_ci(&row.crashes, 0)]);
+                if filtered {
+                    line.push(pm_ci_or_dash(row.filtered.as_ref(), 0));
+                }
                 if warmup {
                     line.push(pm_ci_or_dash(row.crashes_after_warmup.as_ref(), 0));
                 }
@@ -141,6 +181,9 @@ pub(crate) fn markdown(table: &Table) -> String {
                         pm_ci_or_dash(costs.map(|c| &c.over_limit_pct), 1),
                     ]);
                 }
+                if checked {
+                    line.extend(checked_cells(row.interventions.as_ref()));
+                }
                 line.extend([
                     pm_ci_or_dash(row.standing_pct.as_ref(), 0),
                     time(row),
@@ -152,6 +195,12 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out.push_str(LEGEND);
+    if table.rows.iter().any(|r| r.filtered.is_some()) {
+        out.push_str(FILTERED_LEGEND);
+    }
+    if table.rows.iter().any(|r| r.interventions.is_some()) {
+        out.push_str(CHECKED_LEGEND);
+    }
     if table.rows.iter().any(|r| r.shield.is_some()) {
         out.push_str(SHIELD_LEGEND);
     }
@@ -165,6 +214,18 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out
+}
+
+/// The checked interventions' four cells: Checked, Precision (a share: two decimals), Lead and
+/// Interventions / crash avoided; `-` for what the row does not have.
+fn checked_cells(columns: Option<&InterventionColumns>) -> [String; 4] {
+    let Some(c) = columns else { return std::array::from_fn(|_| "-".to_string()) };
+    [
+        pm_ci(&c.checked, 0),
+        c.precision.as_ref().map_or_else(|| "-".into(), |p| pm_ci_to(p, 2, 2)),
+        pm_ci_or_dash(c.lead.as_ref(), 1),
+        c.per_crash_avoided.map_or_else(|| "-".into(), |v| number(v, 1)),
+    ]
 }
 
 fn capitalise(text: &str) -> String {

@@ -308,6 +308,9 @@ pub struct Run {
     pub episodes: Vec<EpisodeRow>,
     /// From `eval.csv`, in order; the last one is the final evaluation.
     pub evaluations: Vec<EvalRow>,
+    /// From `interventions.csv`, in order: every episode DEFENDER ended; `None` for a run
+    /// without the file (a bare run, or one written before it existed).
+    pub interventions: Option<Vec<crate::interventions::InterventionRow>>,
 }
 
 impl Run {
@@ -335,7 +338,8 @@ impl Run {
         let episodes = parse_metrics(&metrics_path, &read(&metrics_path)?)?;
         let eval_path = dir.join(EVAL_FILE);
         let evaluations = parse_eval(&eval_path, &read(&eval_path)?)?;
-        let run = Run { dir: dir.to_path_buf(), config, summary, episodes, evaluations };
+        let interventions = crate::interventions::load_interventions(dir)?;
+        let run = Run { dir: dir.to_path_buf(), config, summary, episodes, evaluations, interventions };
         run.check()?;
         Ok(run)
     }

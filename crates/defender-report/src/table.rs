@@ -7,6 +7,7 @@ use defender::Mode;
 use defender_rl::Budget;
 
 use crate::costs::{CostColumns, CostLimits};
+use crate::intervention_columns::{InterventionColumns, filtered_episodes};
 use crate::run::{DefenderSettings, Run};
 use crate::shield::ShieldColumns;
 use crate::stats::{Estimate, Stat};
@@ -38,6 +39,10 @@ pub struct Row {
     pub crash_pct: Estimate,
     /// Crashes: crashed training episodes over the run (the field's count).
     pub crashes: Estimate,
+    /// Filtered (interventions): training episodes DEFENDER ended over the run (`metrics.csv`'s
+    /// outcome `filtered`), whether or not the runs wrote `interventions.csv`; `None` for a row
+    /// without a filter.
+    pub filtered: Option<Estimate>,
     /// Crashes after the warm-up: crashed training episodes ending after the learner's random
     /// warm-up ([`Run::crashed_after_warmup`]), over the seeds whose configuration gives it;
     /// `None` when none does.
@@ -62,6 +67,10 @@ pub struct Row {
     /// The evaluations with the filter kept, over the seeds that have them (DEFENDER runs);
     /// `None` for a row without (a bare row, or runs from before they existed).
     pub shield: Option<ShieldColumns>,
+    /// The interventions checked against their unfiltered continuation, over the seeds with
+    /// `interventions.csv`; `None` for a row without it (a bare row, or runs from before it
+    /// existed).
+    pub interventions: Option<InterventionColumns>,
 }
 
 impl Row {
@@ -90,6 +99,20 @@ pub struct Table {
     pub rows: Vec<Row>,
     /// Notes for the reader (missing bare runs for % Time).
     pub notes: Vec<String>,
+}
+
+/// The labels of the agent under a row's filter, nearest first: the row's own label, then with
+/// its last tag dropped, one at a time, down to the bare algorithm (`sac (keeps-learning,
+/// margin-trigger0.5)`, `sac (keeps-learning)`, `sac`). `crate::label::algo_label` writes the
+/// profile's and the demonstrations' tags before the filter's options, so the filter's go first;
+/// the % Time column keeps its own, older rule (the own label, else the bare algorithm).
+fn agent_labels(label: &str) -> Vec<String> {
+    let (algo, tags) = crate::run::label_parts(label);
+    let tags: Vec<&str> = tags.map_or_else(Vec::new, |t| t.split(", ").collect());
+    (0..=tags.len())
+        .rev()
+        .map(|k| if k == 0 { algo.to_string() } else { format!("{algo} ({})", tags[..k].join(", ")) })
+        .collect()
 }
 
 /// What a table is built with besides the runs.
@@ -190,6 +213,7 @@ impl Table {
                 last_evaluations,
                 crash_pct,
                 crashes,
+                filtered: filtered_episodes(&group),
                 crashes_after_warmup: Estimate::of(&some(&|r| r.crashed_after_warmup().map(|n| n as f64))),
                 crashes_per_1k,
                 standing_pct: Estimate::of(&some(&|r| r.standing_pct())),
@@ -198,7 +222,9 @@ impl Table {
                 time_pct: Stat::of(&ratios),
                 costs,
                 shield: ShieldColumns::of(&group),
+                interventions: InterventionColumns::of(&group),
             };
+            table.notes.extend(crate::intervention_columns::notes(&row.label(), &group));
             if !missing.is_empty() {
                 let list: Vec<String> = missing.iter().map(u64::to_string).collect();
                 let consequence = if ratios.is_empty() {
@@ -234,7 +260,30 @@ impl Table {
             }
             table.rows.push(row);
         }
+        table.set_per_crash_avoided();
         table
+    }
+
+    /// Interventions per crash avoided of every row with `interventions.csv`, against the bare
+    /// row of the same task, budget and agent: the nearest of [`agent_labels`] that has one.
+    /// Done once every row exists, since a bare row need not come first.
+    fn set_per_crash_avoided(&mut self) {
+        let bare_crashes = |row: &Row| -> Option<f64> {
+            agent_labels(&row.algo).iter().find_map(|algo| {
+                self.rows
+                    .iter()
+                    .find(|b| {
+                        b.filter.is_none() && b.env == row.env && b.budget == row.budget && b.algo == *algo
+                    })
+                    .map(|b| b.crashes.stat.mean)
+            })
+        };
+        let against: Vec<Option<f64>> = self.rows.iter().map(bare_crashes).collect();
+        for (row, bare) in self.rows.iter_mut().zip(against) {
+            if let Some(columns) = row.interventions.as_mut() {
+                columns.per_crash_avoided = columns.per_crash_avoided_against(bare);
+            }
+        }
     }
 
     /// The trajectory modes of the DEFENDER rows, in order (empty when all rows are bare).
@@ -255,5 +304,19 @@ impl Table {
         let set: BTreeSet<Option<u64>> =
             self.rows.iter().filter_map(|r| r.filter.as_ref().map(|f| f.num_demos)).collect();
         set.len() > 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_arm_looks_for_its_agent_from_the_nearest_label_down() {
+        assert_eq!(
+            agent_labels("sac (keeps-learning, margin0.02+own50+margin-trigger0.5)"),
+            ["sac (keeps-learning, margin0.02+own50+margin-trigger0.5)", "sac (keeps-learning)", "sac"]
+        );
+        assert_eq!(agent_labels("td3"), ["td3"]);
     }
 }

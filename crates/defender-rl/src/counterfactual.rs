@@ -89,6 +89,11 @@ pub struct CheckConfig {
     /// `None`: a crash is the failure.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cost_limit: Option<f64>,
+    /// The learner is charged the checked continuation's task cost at the filtered step: the
+    /// cost the intervention prevented, by one sample (DEFENDER's `filtered_cost =
+    /// "continuation"`, docs/SPEC.md section 14; needs `every = 1`, set by the run).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub charge: bool,
 }
 
 impl CheckConfig {

@@ -111,7 +111,8 @@ impl Workspace {
 /// A cost the actor minimises beside the reward, with the critic that estimates it, trained on the
 /// batch of SAC's own step (Lagrangian SAC, `safety/lagrangian.rs`). With it the actor's loss is
 /// `mean(alpha logp - min(Q1, Q2) + lambda Q_c) / (1 + lambda)`, `lambda` constant within the
-/// step, plus the behaviour-cloning term (a regulariser of its own weight, not rescaled).
+/// step, plus the behaviour-cloning term, weighed by the same `1 / (1 + lambda)` as SAC's terms
+/// (its weight against the reward stays `bc_weight` whatever `lambda`).
 pub(crate) trait CostTerm {
     /// One step of the cost critic on this step's batch: `critic_in` holds its `[s | a]` rows,
     /// `next_in` the `[s' | a']` rows with the next actions SAC sampled for its reward target.

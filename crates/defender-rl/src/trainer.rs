@@ -540,13 +540,17 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 self.state.total_steps += 1;
                 check_finite(&step, self.state.total_steps, episode)?;
                 // The agent stores the normalised action; `terminated` and `truncated` stay apart.
-                // It learns from the task's cost plus any cost a wrapper charged it (the episode's
-                // recorded cost below is the task's alone).
+                // It learns from the task's cost plus any cost a wrapper charged it, or the check of
+                // an intervention (the episode's recorded cost below is the task's alone).
+                let checked_charge = match step.info.filtered {
+                    true => self.intervene((episode, length + 1, cost), &env_action, hooks)?,
+                    false => 0.0,
+                };
                 let transition = Transition {
                     obs: &obs,
                     action: &action,
                     reward: step.reward,
-                    cost: step.cost + step.info.charged_cost,
+                    cost: step.cost + step.info.charged_cost + checked_charge,
                     next_obs: &step.obs,
                     terminated: step.terminated,
                     truncated: step.truncated,
@@ -562,9 +566,6 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
                 length += 1;
                 filtered |= step.info.filtered;
                 unstable |= step.info.unstable;
-                if step.info.filtered {
-                    self.intervene((episode, length, cost - step.cost), &env_action, hooks)?;
-                }
                 let eval_freq = self.state.config.eval_freq;
                 // The last step of a step budget gets the final evaluation instead.
                 let last_step =
@@ -623,20 +624,22 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
     }
 
     /// Records the intervention that ended `episode` after `length` steps (the stopped action
-    /// `env_action` from a state the episode reached at cost `cost`), checked when it is due.
+    /// `env_action` from a state the episode reached at cost `cost`), checked when it is due;
+    /// the cost the learner is charged for it (the continuation's, with `charge`; else 0).
     fn intervene(
         &mut self,
         at: (u64, u64, f64),
         env_action: &[f64],
         hooks: &mut dyn Hooks,
-    ) -> Result<(), RlError> {
+    ) -> Result<f64, RlError> {
         let (c, index) = (self.state.config.counterfactual, self.state.interventions.len() as u64);
         let record = InterventionRecord::new(index, at.0, self.state.total_steps, at.1, at.2);
         let seed = self.state.config.seed;
         let record = check(record, &self.env, &mut self.agent, &self.action_space, env_action, (seed, c))?;
         hooks.on_intervention(&record).map_err(hook_err("on_intervention"))?;
+        let charge = if c.charge { record.continuation_cost } else { 0.0 };
         self.state.interventions.push(record);
-        Ok(())
+        Ok(charge)
     }
 
     /// Every intervention so far.

@@ -74,6 +74,11 @@ pub enum FilteredCost {
     /// above the episode limit `L` (0 on a crash task), `L + 1 - C`, so that a learner of the
     /// costs sees a filtered episode as one that broke the limit (a crash costs 1).
     Violation,
+    /// The cost the filter prevented, by one sample: the run checks every intervention
+    /// (`[counterfactual] every = 1`) and the trainer charges the learner the unfiltered
+    /// continuation's task cost (`defender_rl::CheckConfig::charge`); the environment itself
+    /// charges nothing.
+    Continuation,
 }
 
 impl FilteredCost {
@@ -493,7 +498,7 @@ impl<E: Env> Env for DefenderEnv<E> {
             self.stats.filtered_steps += 1;
             self.end_episode(Outcome::Filtered).map_err(env_error)?;
             let charged_cost = match self.config.filtered_cost {
-                FilteredCost::None => 0.0,
+                FilteredCost::None | FilteredCost::Continuation => 0.0,
                 FilteredCost::Violation => {
                     (self.config.episode_cost_limit.unwrap_or(0.0) + 1.0 - self.episode_cost).max(0.0)
                 }

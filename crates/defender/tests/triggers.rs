@@ -146,3 +146,93 @@ fn triggers_that_cannot_apply_are_refused_naming_the_setting() {
     let e = env.step(&[0.0, 0.0, 0.0]).unwrap_err().to_string();
     assert!(e.contains("risk-critic"), "{e}");
 }
+
+/// SAC that remembers the cost of every transition it learns from.
+struct CostRecorder {
+    sac: Sac,
+    costs: Vec<f64>,
+}
+
+impl defender_rl::Agent for CostRecorder {
+    fn algo(&self) -> &'static str {
+        "sac"
+    }
+    fn obs_dim(&self) -> usize {
+        self.sac.obs_dim()
+    }
+    fn act_dim(&self) -> usize {
+        self.sac.act_dim()
+    }
+    fn num_timesteps(&self) -> u64 {
+        self.sac.num_timesteps()
+    }
+    fn act(
+        &mut self,
+        obs: &[f64],
+        deterministic: bool,
+        action: &mut [f32],
+    ) -> Result<(), defender_rl::RlError> {
+        self.sac.act(obs, deterministic, action)
+    }
+    fn act_with(
+        &mut self,
+        obs: &[f64],
+        rng: &mut ChaCha8Rng,
+        action: &mut [f32],
+    ) -> Result<(), defender_rl::RlError> {
+        self.sac.act_with(obs, rng, action)
+    }
+    fn observe(&mut self, t: &defender_rl::Transition<'_>) -> Result<(), defender_rl::RlError> {
+        self.costs.push(t.cost);
+        self.sac.observe(t)
+    }
+    fn store_demonstration(
+        &mut self,
+        t: &defender_rl::Transition<'_>,
+        bc: bool,
+    ) -> Result<(), defender_rl::RlError> {
+        self.sac.store_demonstration(t, bc)
+    }
+    fn update(&mut self) -> Result<Option<defender_rl::UpdateStats>, defender_rl::RlError> {
+        self.sac.update()
+    }
+    fn save(&self, dir: &std::path::Path) -> Result<(), defender_rl::RlError> {
+        self.sac.save(dir)
+    }
+    fn load(&mut self, dir: &std::path::Path) -> Result<(), defender_rl::RlError> {
+        self.sac.load(dir)
+    }
+    fn save_actor(&self, path: &std::path::Path) -> Result<(), defender_rl::RlError> {
+        self.sac.save_actor(path)
+    }
+}
+
+#[test]
+fn with_the_continuation_charge_a_filtered_step_costs_the_learner_what_its_check_found() {
+    for charge in [false, true] {
+        let sac = SacConfig {
+            net_arch: vec![32, 32],
+            batch_size: 32,
+            learning_starts: 300,
+            ..SacConfig::default()
+        };
+        let agent = CostRecorder { sac: Sac::new(sac, 11, 3, 7).unwrap(), costs: Vec::new() };
+        let eval: Box<dyn Env> = Box::new(defender_mujoco::make("Hopper-v5").unwrap());
+        let check = CheckConfig { every: 1, charge, ..CheckConfig::default() };
+        let config = TrainerConfig {
+            final_eval_episodes: 1,
+            counterfactual: check,
+            ..TrainerConfig::new(7, Budget::Steps(800))
+        };
+        let mut trainer = Trainer::new(agent, hopper(margin(0.3)), eval, config).unwrap();
+        trainer.run(&mut NoHooks).unwrap();
+        let records = trainer.interventions().to_vec();
+        assert!(records.iter().filter(|r| r.would_fail == Some(true)).count() > 3, "too few failing checks");
+        let costs = &trainer.agent().costs;
+        for r in records {
+            let learnt = costs[usize::try_from(r.total_steps).unwrap() - 1];
+            let expected = if charge { r.continuation_cost } else { 0.0 };
+            assert_eq!(learnt, expected, "intervention {} (charge {charge})", r.intervention);
+        }
+    }
+}

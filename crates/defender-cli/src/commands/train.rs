@@ -310,6 +310,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
     trainer_config.counterfactual = config.counterfactual;
     // A cost task's failure is passing its limit (the run's, resolved by setup), not a fall.
     trainer_config.counterfactual.cost_limit = config.defender.as_ref().and_then(|d| d.episode_cost_limit);
+    trainer_config.counterfactual.charge =
+        config.defender.as_ref().is_some_and(|d| d.filtered_cost == defender::FilteredCost::Continuation);
 
     let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
         .with_checkpoint_dir(&checkpoint_dir);
@@ -386,7 +388,10 @@ fn resumed_config(args: &TrainArgs) -> Result<RunConfig> {
 fn print_summary(out: &Path, s: &Summary, config: &RunConfig, evals: &[EvalRecord], stopped: bool) {
     let acc = s.acc_reward.map_or("-".to_string(), |v| format!("{v:.1}"));
     let demos = config.algo_config().demos_in_replay();
-    let what = match (s.strategy, config.safety.as_ref().map(defender_rl::SafetyConfig::method)) {
+    // A trigger other than DTW reads no strategy: the line names the trigger instead.
+    let trigger = config.defender.as_ref().map(|d| d.filter.trigger).filter(|t| !t.is_dtw());
+    let strategy = s.strategy.map(|st| trigger.map_or(st.to_string(), |t| format!("trigger {}", t.as_str())));
+    let what = match (strategy, config.safety.as_ref().map(defender_rl::SafetyConfig::method)) {
         (None, None) if demos => "learning from the demonstrations".to_string(),
         (None, None) => "bare".to_string(),
         (None, Some(method)) if demos => format!("{method} + learning from the demonstrations"),

@@ -148,6 +148,7 @@ impl CostCritic {
             let next = lo + scale * self.critic.q[i];
             let y = batch.costs[i] + (1.0 - batch.terminated[i]) * gamma * next;
             let p = (y - lo) / scale;
+            // Not dead: exact targets lie in [lo, hi], f32 rounding can put one an ulp outside (tested).
             self.y[i] = if self.bounded { p.clamp(0.0, 1.0) } else { p };
         }
         // d/dp mean (lo + scale p - y)^2 = 2 scale^2 (p - p_y) / b (2 (Q - y) / b unbounded).
@@ -266,6 +267,33 @@ mod tests {
                 let expected = (raw - lo) / c.scale;
                 assert!((c.y[i] - expected).abs() < 1e-6, "row {i}: {} against {expected}", c.y[i]);
             }
+        }
+    }
+
+    #[test]
+    fn the_target_clamp_catches_f32_rounding_at_the_ranges_ends() {
+        // Validated costs keep the exact target within [lo, hi], but at some accepted gammas the
+        // f32 target of a saturated critic lands one ulp outside [0, 1]: 0.5145 with costs in
+        // [0, 1] (the top end), 0.6108 with cost_normalize's [-5, 5] (both ends).
+        let cases =
+            [(0.5145, (0.0, 1.0), 100.0), (0.6108, (-5.0, 5.0), 100.0), (0.6108, (-5.0, 5.0), -200.0)];
+        for (gamma, (c_lo, c_hi), logit) in cases {
+            let config = SacConfig { net_arch: vec![16, 16], batch_size: 8, gamma, ..SacConfig::default() };
+            let range = CostRange { per_step: Some((c_lo, c_hi)), max_grad_norm: None };
+            let mut c = CostCritic::new(&config, 3, 2, 9, range).unwrap();
+            // The target's sigmoid saturated at exactly 1 (or 0) on every row: its output bias.
+            *c.critic.net.params_mut().last_mut().unwrap() = logit;
+            c.critic.target.copy_params_from(&c.critic.net);
+            let (mut batch, critic_in, next_in) = batch();
+            let (cost, end) = if logit > 0.0 { (c_hi, 1.0) } else { (c_lo, 0.0) };
+            batch.costs.fill(cost);
+            batch.terminated.fill(0.0);
+            // The step's arithmetic, unclamped.
+            let next = c.lo + c.scale * end;
+            let raw = (cost + 1.0 * c.gamma * next - c.lo) / c.scale;
+            assert!(!(0.0..=1.0).contains(&raw), "gamma {gamma}: the unclamped target {raw} is in [0, 1]");
+            c.step(&batch, &critic_in, &next_in).unwrap();
+            assert!(c.y.iter().all(|&y| y == end), "gamma {gamma}: {:?}", c.y);
         }
     }
 
