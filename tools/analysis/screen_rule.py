@@ -83,6 +83,17 @@ def settings(*roots: Path) -> dict[str, dict[str, list[Path]]]:
     return out
 
 
+def interventions(run: Path, steps: int) -> tuple[int, int, int] | None:
+    """(interventions after the warm-up, of them checked, of those that would have failed), from
+    interventions.csv (docs/run-directory.md); None for a run without one."""
+    path = run / "interventions.csv"
+    if not path.exists():
+        return None
+    late = [r for r in rows(path) if WARMUP < int(r["total_steps"]) <= steps]
+    checked = [r for r in late if r["checked"] == "1"]
+    return len(late), len(checked), sum(r["would_fail"] == "1" for r in checked)
+
+
 def mean(xs: list[float]) -> float:
     return sum(xs) / len(xs)
 
@@ -97,8 +108,10 @@ def baselines(args: argparse.Namespace) -> None:
         bare_crashes = mean([crashes_after_warmup(r, steps) for r in bare_runs])
         print(f"\n### {task}: {steps} steps, seeds {seeds}; bare SAC {bare:.0f} (bar {bar:.0f}), "
               f"{bare_crashes:.0f} crashes after the warm-up\n")
-        print("| setting | runs | crashes after warm-up | return (last 40%) | reaches the bar |")
-        print("| --- | ---: | ---: | ---: | --- |")
+        counted = any((r / "interventions.csv").exists() for runs in by_setting.values() for r in runs)
+        extra = " interventions after warm-up | precision |" if counted else ""
+        print(f"| setting | runs | crashes after warm-up | return (last 40%) | reaches the bar |{extra}")
+        print("| --- | ---: | ---: | ---: | --- |" + (" ---: | ---: |" if counted else ""))
         table = []
         for name, runs in sorted(by_setting.items()):
             done = [r for r in runs if complete(r, steps)]
@@ -108,10 +121,18 @@ def baselines(args: argparse.Namespace) -> None:
             crashes = mean([crashes_after_warmup(r, steps) for r in done])
             ret = mean([late_eval(r, steps, "mean_return") for r in done])
             table.append((name, crashes, ret))
-            print(f"| {name} | {len(done)} | {crashes:.1f} | {ret:.0f} | {'yes' if ret >= bar else 'no'} |")
+            cells = ""
+            if counted:
+                found = [c for c in (interventions(r, steps) for r in done) if c is not None]
+                n = mean([c[0] for c in found]) if found else 0.0
+                checked, failed = sum(c[1] for c in found), sum(c[2] for c in found)
+                precision = f"{failed / checked:.2f}" if checked else "-"
+                cells = f" {n:.1f} | {precision} |"
+            print(f"| {name} | {len(done)} | {crashes:.1f} | {ret:.0f} | {'yes' if ret >= bar else 'no'} |{cells}")
         families: dict[str, list[tuple[str, float, float]]] = {}
         for entry in table:
-            family = re.sub(r"^sac-bare-", "", entry[0]).split("-")[0].rstrip("0123456789")
+            # The setting's name without the algorithm and `bare` or the (unread) strategy.
+            family = re.sub(r"^sac-(bare|[A-Z]\w*-[A-Z]\w*)-", "", entry[0]).split("-")[0].rstrip("0123456789")
             families.setdefault(family, []).append(entry)
         for family, entries in sorted(families.items()):
             above = [e for e in entries if e[2] >= bar]
