@@ -12,10 +12,12 @@ writes a copy of a set whose observation is
                     closest hazard whatever its bearing; above 1 - 0.2 / 3 = 0.933 the robot is
                     inside one (hazard radius 0.2), the steps that cost.
 Actions, rewards, lengths and labels are unchanged; `meta` keeps everything (the episode cost
-limit among it) with the new obs_dim and a note of the selection. Column ranges of the two tasks:
-SafetyPointGoal1-v0 hazards lidar 28:44 (of 60), SafetyCarGoal1-v0 34:50 (of 72).
+limit among it) with the new obs_dim and a note of the selection. The columns come from
+navigation_layout.py, which checks them against the task (`navigation_layout.py TASK
+hazards_lidar` prints SafetyPointGoal1-v0's 28:44 of 60, SafetyCarGoal1-v0's 40:56 of 72).
 
-  .deps/omnisafe-venv/bin/python tools/navigation/navigation_features.py --max-of 28:44 \\
+  .deps/omnisafe-venv/bin/python tools/navigation/navigation_features.py \\
+      --max-of "$(.deps/omnisafe-venv/bin/python tools/navigation/navigation_layout.py SafetyPointGoal1-v0 hazards_lidar)" \\
       --in results/navigation/SafetyPointGoal1-v0/demos.npz --out runs/point-demos-hazard.npz
 """
 

@@ -47,10 +47,10 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [HERE, os.path.join(os.path.dirname(HERE), "peers")]  # this folder, and tools/peers/
 from navigation_episodes import CostLabelledEpisodes  # noqa: E402 (beside this file)
+from navigation_layout import TASKS  # noqa: E402 (the tasks whose observation layout is known)
 from omnisafe_run_dir import write_json  # noqa: E402
 from omnisafe_saclag import Recorder, hook_episodes, versions  # noqa: E402
 
-TASKS = ("SafetyPointGoal1-v0", "SafetyCarGoal1-v0")
 ALGOS = {"PPOLag": 20000, "SACLag": 2000}  # OmniSafe 0.5.0's steps_per_epoch for each
 HORIZON = 1000  # the navigation tasks' time limit
 
