@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The navigation tasks' first look (docs/results-navigation.md), for one task:
 #
-#   1. OmniSafe's PPOLag, bare, seeds 0 and 1, STEPS steps each, every training episode recorded
-#      and labelled by docs/SPEC.md section 13 (limit 25), a policy snapshot every epoch
-#      (tools/navigation/navigation_train.py);
-#   2. demonstrations from seed 0's snapshots: PER_SNAPSHOT episodes of each snapshot's
-#      deterministic policy through defender_rl.DemoRecorder(episode_cost_limit=25), N_SAFE + N_UNSAFE
-#      kept at evenly spaced positions (tools/navigation/navigation_demos.py);
+#   1-2. the episode sets (tools/navigation/navigation-sets.sh, when they are not there): OmniSafe's
+#      PPOLag, bare, seeds 0 and 1, STEPS steps each, every training episode recorded and
+#      labelled by docs/SPEC.md section 13 (limit 25), a policy snapshot every epoch; then
+#      PER_SNAPSHOT episodes of each of seed 0's snapshots' deterministic policy through
+#      defender_rl.DemoRecorder(episode_cost_limit=25), N_SAFE + N_UNSAFE kept at evenly spaced
+#      positions. Made bit for bit and checked against results/navigation/TASK/episode-sets.sha256;
 #   3. the strategy `auto` picks on them (`defender select --scaling auto --no-equal`, as
 #      `defender train --strategy auto` chooses);
 #   4. the offline screen: seed 1's recorded training episodes replayed in order through that
@@ -15,13 +15,15 @@
 #   5. the diagnostic (docs/results-navigation.md, "Why"): steps 3 and 4 again on copies of both
 #      sets whose observation is only the hazards lidar (16 features), and only its largest bin
 #      (1 feature: the nearness of the closest hazard), into OUT/features/
-#      (tools/navigation/navigation_features.py);
-#   6. the figures the page quotes beside the screens (tools/navigation/navigation_summary.py -> summary.json).
+#      (tools/navigation/navigation_features.py; the columns from navigation_layout.py, which
+#      checks them against the task);
+#   6. the classifier trigger (SPEC section 15) on the same demonstrations and held-out episodes,
+#      its setting chosen by cross-validation on the demonstrations (tools/navigation/navigation_classifier.py);
+#   7. the figures the page quotes beside the screens (tools/navigation/navigation_summary.py -> summary.json).
 #
-# Every step is deterministic given the seeds (one torch thread; OmniSafe seeds torch and the task's
-# first reset, DemoRecorder resets every episode with its derived seed) and skipped when its output
-# exists, so the script resumes. The .npz files and OmniSafe's snapshots stay out of git
-# (.gitignore: results/**/*.npz, results/**/torch_save/); this script remakes them.
+# Every step is deterministic given the seeds and skipped when its output exists, so the script
+# resumes. The .npz files and OmniSafe's snapshots stay out of git (.gitignore: results/**/*.npz,
+# results/**/torch_save/); navigation-sets.sh remakes the sets.
 #
 #   bash tools/navigation/navigation-screen.sh SafetyPointGoal1-v0
 #   STEPS=100000 PER_SNAPSHOT=20 bash tools/navigation/navigation-screen.sh SafetyCarGoal1-v0
@@ -38,21 +40,17 @@ N_UNSAFE=${N_UNSAFE:-25}
 PY=${PY:-.deps/omnisafe-venv/bin/python}
 DEFENDER=${DEFENDER:-target/release/defender}
 OUT=results/navigation/$TASK
-RUN=(env OMP_NUM_THREADS=1 nice -n 10)
+RUN=(env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 MKL_CBWR=COMPATIBLE,STRICT ATEN_CPU_CAPABILITY=default nice -n 10)
 mkdir -p "$OUT"
 
-for seed in 0 1; do
-  if [ ! -f "$OUT/ppolag-s$seed/episodes.npz" ]; then
-    rm -rf "$OUT/ppolag-s$seed"
-    "${RUN[@]}" "$PY" tools/navigation/navigation_train.py --env "$TASK" --seed "$seed" --steps "$STEPS" --out "$OUT/ppolag-s$seed"
+DEMOS=$OUT/demos.npz
+for f in ppolag-s0/episodes.npz ppolag-s1/episodes.npz demos.npz; do
+  if [ ! -f "$OUT/$f" ]; then
+    STEPS=$STEPS PER_SNAPSHOT=$PER_SNAPSHOT N_SAFE=$N_SAFE N_UNSAFE=$N_UNSAFE PY=$PY \
+      bash tools/navigation/navigation-sets.sh "$TASK"
+    break
   fi
 done
-
-DEMOS=$OUT/demos.npz
-if [ ! -f "$DEMOS" ]; then
-  "${RUN[@]}" "$PY" tools/navigation/navigation_demos.py --run "$OUT/ppolag-s0" --per-snapshot "$PER_SNAPSHOT" \
-    --safe "$N_SAFE" --unsafe "$N_UNSAFE" --seed 0 --out "$DEMOS" --candidates "$OUT/demo-candidates.csv"
-fi
 
 if [ ! -f "$OUT/selection.csv" ]; then
   "${RUN[@]}" "$DEFENDER" select --demos "$DEMOS" --no-equal --scaling auto --out "$OUT/selection.csv"
@@ -68,12 +66,8 @@ if [ ! -f "$OUT/screen.csv" ]; then
 fi
 echo "navigation-screen: $TASK: auto's strategy $STRATEGY; $OUT/screen.csv"
 
-# The hazards lidar's columns (Safety-Gymnasium's obs_space_dict order).
-case "$TASK" in
-  SafetyPointGoal1-v0) HAZARDS=28:44 ;;
-  SafetyCarGoal1-v0) HAZARDS=34:50 ;;
-  *) echo "navigation-screen: no hazards columns known for $TASK" >&2; exit 2 ;;
-esac
+# The hazards lidar's columns: navigation_layout.py's, checked against the task made here.
+HAZARDS=$("$PY" tools/navigation/navigation_layout.py "$TASK" hazards_lidar)
 FEAT=$OUT/features
 mkdir -p "$FEAT"
 for kind in hlidar hmax; do
@@ -95,4 +89,8 @@ for kind in hlidar hmax; do
       --out "$FEAT/$kind-screen.csv"
 done
 
-"${RUN[@]}" "$PY" tools/navigation/navigation_summary.py --task-dir "$OUT" --hazards "$HAZARDS" --out "$OUT/summary.json"
+[ -f "$OUT/classifier.json" ] ||
+  "${RUN[@]}" "$PY" tools/navigation/navigation_classifier.py --demos "$DEMOS" --episodes "$OUT/ppolag-s1/episodes.npz" \
+    --out "$OUT/classifier.json" --csv "$OUT/classifier.csv"
+
+"${RUN[@]}" "$PY" tools/navigation/navigation_summary.py --task-dir "$OUT" --out "$OUT/summary.json"

@@ -19,7 +19,9 @@ OmniSafe's own Normalizer would go on updating its statistics), scaled from [-1,
 action space as OmniSafe's ActionScale does, clipped to it as the task's actuators clip.
 
 Into --out (an .npz) and beside it --candidates (CSV): snapshot,episode,label,length,cost,return
-of every recorded episode, kept or not.
+of every recorded episode, kept or not. The set's provenance names the learner by its algorithm,
+seed and budget, not by its folder (OmniSafe's carries the time it started), so that the same
+snapshots give the same bytes wherever they were trained.
 
 Run (in tools/peers/omnisafe-venv.sh's venv with the wheel installed), e.g.
   OMP_NUM_THREADS=1 nice -n 10 .deps/omnisafe-venv/bin/python tools/navigation/navigation_demos.py \\
@@ -149,7 +151,8 @@ def main(argv: list[str] | None = None) -> int:
     provenance = (
         f"tools/navigation/navigation_demos.py: defender_rl.DemoRecorder (seed {args.seed}) on {task}, {args.per_snapshot} "
         f"episodes of the deterministic policy of each of {len(snaps)} snapshots (epochs {snaps[0][0]}-{snaps[-1][0]}) "
-        f"of {os.path.relpath(folder)} ({len(recorder.candidates)} candidates; unsafe: cut on the step where the "
+        f"of OmniSafe {cfgs['algo']} seed {cfgs['seed']}, {cfgs['train_cfgs']['total_steps']} steps "
+        f"({len(recorder.candidates)} candidates; unsafe: cut on the step where the "
         f"episode cost passed {args.cost_limit:g}; safe: reached the horizon with cost <= {args.cost_limit:g})"
     )
     demos = recorder.select(args.safe, args.unsafe, provenance=provenance)

@@ -10,17 +10,21 @@ tools/navigation/navigation-screen.sh, into a JSON file (and printed):
                 8 hazards of radius 0.2, cost 1 each; the vase costs nothing)
   inside_rule   a state rule, not DEFENDER, on seed 1's recorded episodes (the screen's): "the
                 closest hazard is nearer than its radius", the largest hazards-lidar bin above
-                1 - 0.2 / 3 (pseudo lidar: 1 - distance / 3), replayed as the screen replays a
-                filter: caught % (unsafe episodes where it fires before the violating step),
-                false alarm % (safe episodes where it fires), mean lead (steps from firing to the
-                violating step). It says whether the observation holds what separates the
+                1 - 0.2 / 3 (pseudo lidar: 1 - distance / 3; the columns: navigation_layout.py),
+                replayed as the screen replays a filter. A step costs when it ends inside a
+                hazard, so the rule fires on the step after a cost: it reads the cost signal one
+                step late. Reported: caught % (unsafe episodes where it fires before the
+                violating step), false alarm % (safe episodes where it fires), mean lead (steps
+                from firing to the violating step). It says whether the observation holds what separates the
                 groups, and when
   demonstrations  candidates by label (demo-candidates.csv); the kept set's unsafe lengths
   selection, screen, features/*   auto's choice (its leave-one-out figures) and the screens'
                 rows, as the CLI wrote them
+  classifier    navigation_classifier.py's classifier.json (its choice, its cross-validation on
+                the demonstrations, its held-out figures), when present
 
   .deps/omnisafe-venv/bin/python tools/navigation/navigation_summary.py --task-dir results/navigation/SafetyPointGoal1-v0 \\
-      --hazards 28:44 --out results/navigation/SafetyPointGoal1-v0/summary.json
+      --out results/navigation/SafetyPointGoal1-v0/summary.json
 """
 
 from __future__ import annotations
@@ -36,8 +40,9 @@ import numpy as np
 
 from defender_rl import EpisodeSet
 
-HAZARD_RADIUS, LIDAR_MAX_DIST = 0.2, 3.0  # Goal level 1's hazards and lidar (Safety-Gymnasium 1.0.0)
-INSIDE = 1.0 - HAZARD_RADIUS / LIDAR_MAX_DIST
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# Goal level 1's hazards and lidar, and the columns: navigation_layout.py (checked against the task).
+from navigation_layout import INSIDE, LAYOUT, columns  # noqa: E402,F401
 
 
 def read(path: str) -> list[dict[str, str]]:
@@ -116,15 +121,26 @@ def inside_rule(path: str, hazards: slice) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--task-dir", required=True, help="results/navigation/<task>")
-    parser.add_argument("--hazards", required=True, help="the hazards lidar's columns A:B")
+    parser.add_argument("--hazards", help="the hazards lidar's columns A:B (default: navigation_layout.py's for "
+                        "the folder's task; given, they must agree)")
     parser.add_argument("--out", required=True, help="the summary (.json)")
     args = parser.parse_args(argv)
-    a, b = (int(x) for x in args.hazards.split(":"))
     d = args.task_dir
+    task = os.path.basename(os.path.normpath(d))
+    if args.hazards is not None:
+        a, b = (int(x) for x in args.hazards.split(":"))
+        hazards = slice(a, b)
+        if task in LAYOUT and hazards != columns(task, "hazards_lidar"):
+            known = columns(task, "hazards_lidar")
+            parser.error(f"--hazards {a}:{b}: {task}'s hazards lidar is {known.start}:{known.stop} (navigation_layout.py)")
+    elif task in LAYOUT:
+        hazards = columns(task, "hazards_lidar")
+    else:
+        parser.error(f"{task}: no layout known; give --hazards")
 
-    out: dict = {"task": os.path.basename(os.path.normpath(d))}
+    out: dict = {"task": task, "hazards_columns": f"{hazards.start}:{hazards.stop}"}
     out["learner"] = {f"seed{s}": learner(os.path.join(d, f"ppolag-s{s}")) for s in (0, 1)}
-    out["inside_rule_seed1"] = inside_rule(os.path.join(d, "ppolag-s1", "episodes.npz"), slice(a, b))
+    out["inside_rule_seed1"] = inside_rule(os.path.join(d, "ppolag-s1", "episodes.npz"), hazards)
     cands = read(os.path.join(d, "demo-candidates.csv"))
     demos = EpisodeSet.load(os.path.join(d, "demos.npz"))
     lengths = [len(demos.episode(i)["rew"]) for i in range(len(demos)) if demos.episode(i)["crashed"]]
@@ -142,6 +158,14 @@ def main(argv: list[str] | None = None) -> int:
                 "selection": read(os.path.join(f, f"{kind}-selection.csv"))[0],
                 "screen": read(os.path.join(f, f"{kind}-screen.csv")),
             }
+    if os.path.exists(os.path.join(d, "classifier.json")):
+        with open(os.path.join(d, "classifier.json"), encoding="utf-8") as f:
+            found = json.load(f)
+        out["classifier"] = {
+            "chosen": found["chosen"],
+            "cross_validation": found["cross_validation"],
+            "heldout": found["heldout"],
+        }
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(out, f, indent=1)
         f.write("\n")
