@@ -263,13 +263,9 @@ impl RunConfig {
         if let (Some(d), Some(safety)) = (&self.defender, &self.safety)
             && !d.filtered_cost.is_none()
         {
-            // A filtered step is charged up to the episode limit plus one (1 on a crash task);
-            // with the continuation's cost, up to one per step of the horizon (1000 on every
-            // shipped task).
-            let charged = match d.filtered_cost {
-                defender::FilteredCost::Continuation => 1000.0,
-                _ => d.episode_cost_limit.or(task_limit).unwrap_or(0.0) + 1.0,
-            };
+            // A filtered step is charged up to the episode limit plus one (1 on a crash task); the
+            // continuation's cost is capped at cost_max, which must reach at least as far.
+            let charged = d.episode_cost_limit.or(task_limit).unwrap_or(0.0) + 1.0;
             let cost_max = match safety {
                 defender_rl::SafetyConfig::Lagrangian(l) => Some(l.cost_max),
                 defender_rl::SafetyConfig::Pid(p) => Some(p.cost_max),
@@ -280,8 +276,8 @@ impl RunConfig {
             {
                 bail!(
                     "[safety] cost_max = {cost_max}: with [defender] filtered_cost = \"{}\" on {env} a \
-                     filtered step can cost the learner up to {charged} (the episode limit plus one, or \
-                     one per step of the horizon for the continuation's cost); set cost_max = {charged} \
+                     filtered step can cost the learner the episode limit plus one, {charged} (the \
+                     continuation's cost is capped at cost_max); set cost_max to at least {charged} \
                      (--cost-max {charged})",
                     if d.filtered_cost == defender::FilteredCost::Violation {
                         "violation"

@@ -89,11 +89,12 @@ pub struct CheckConfig {
     /// `None`: a crash is the failure.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cost_limit: Option<f64>,
-    /// The learner is charged the checked continuation's task cost at the filtered step: the
-    /// cost the intervention prevented, by one sample (DEFENDER's `filtered_cost =
-    /// "continuation"`, docs/SPEC.md section 14; needs `every = 1`, set by the run).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub charge: bool,
+    /// The learner is charged the checked continuation's task cost at the filtered step, at most
+    /// this much (a cost critic's bound on one step's cost): the cost the intervention
+    /// prevented, by one sample (DEFENDER's `filtered_cost = "continuation"`, docs/SPEC.md
+    /// section 14; needs `every = 1`, set by the run). `None`: no charge.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charge_max: Option<f64>,
 }
 
 impl CheckConfig {

@@ -625,7 +625,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
 
     /// Records the intervention that ended `episode` after `length` steps (the stopped action
     /// `env_action` from a state the episode reached at cost `cost`), checked when it is due;
-    /// the cost the learner is charged for it (the continuation's, with `charge`; else 0).
+    /// the cost the learner is charged for it (the continuation's, at most `charge_max`; else 0).
     fn intervene(
         &mut self,
         at: (u64, u64, f64),
@@ -637,7 +637,7 @@ impl<A: Agent, E: Env, V: Env> Trainer<A, E, V> {
         let seed = self.state.config.seed;
         let record = check(record, &self.env, &mut self.agent, &self.action_space, env_action, (seed, c))?;
         hooks.on_intervention(&record).map_err(hook_err("on_intervention"))?;
-        let charge = if c.charge { record.continuation_cost } else { 0.0 };
+        let charge = c.charge_max.map_or(0.0, |max| record.continuation_cost.min(max));
         self.state.interventions.push(record);
         Ok(charge)
     }

@@ -310,8 +310,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
     trainer_config.counterfactual = config.counterfactual;
     // A cost task's failure is passing its limit (the run's, resolved by setup), not a fall.
     trainer_config.counterfactual.cost_limit = config.defender.as_ref().and_then(|d| d.episode_cost_limit);
-    trainer_config.counterfactual.charge =
-        config.defender.as_ref().is_some_and(|d| d.filtered_cost == defender::FilteredCost::Continuation);
+    if config.defender.as_ref().is_some_and(|d| d.filtered_cost == defender::FilteredCost::Continuation) {
+        trainer_config.counterfactual.charge_max = config.safety.as_ref().and_then(|s| s.cost_max());
+    }
 
     let mut trainer = Trainer::new(built.agent, built.env, built.eval_env, trainer_config)?
         .with_checkpoint_dir(&checkpoint_dir);

@@ -332,6 +332,16 @@ impl SafetyConfig {
         }
     }
 
+    /// The largest cost of one step its cost critic accepts (the Lagrangian agents'); `None` for
+    /// the others.
+    pub fn cost_max(&self) -> Option<f64> {
+        match self {
+            Self::Lagrangian(l) => Some(l.cost_max),
+            Self::Pid(p) => Some(p.cost_max),
+            Self::Penalty { .. } | Self::Recovery(_) => None,
+        }
+    }
+
     /// Checks the knobs.
     ///
     /// # Errors
