@@ -90,6 +90,15 @@ impl CostCritic {
         let output = if range.per_step.is_some() { Activation::Sigmoid } else { Activation::Identity };
         let mut critic =
             Critic::with_output(obs_dim + act_dim, &config.net_arch, adam, b, &mut init, output)?;
+        if range.per_step.is_some() && config.gamma >= 1.0 {
+            // The bound is a discounted sum's, c / (1 - gamma): no bound without a discount.
+            return Err(RlError::Config {
+                field: "gamma",
+                value: config.gamma.to_string(),
+                expected: "< 1 with the bounded cost critic ([safety] bounded_cost_critic, on by default), \
+                           whose range is the per-step cost over (1 - gamma)",
+            });
+        }
         let horizon = 1.0 / (1.0 - config.gamma);
         let (lo, scale) = match range.per_step {
             Some((c_lo, c_hi)) => {
@@ -243,6 +252,16 @@ mod tests {
     }
 
     const BOUNDED: Option<(f32, f32)> = Some((0.0, 1.0));
+
+    #[test]
+    fn an_undiscounted_bounded_critic_is_refused_naming_gamma() {
+        let config = SacConfig { net_arch: vec![16, 16], batch_size: 8, gamma: 1.0, ..SacConfig::default() };
+        let range = CostRange { per_step: BOUNDED, max_grad_norm: None };
+        let e = CostCritic::new(&config, 3, 2, 9, range).err().unwrap().to_string();
+        assert!(e.contains("gamma") && e.contains("bounded"), "{e}");
+        let linear = CostRange { per_step: None, max_grad_norm: None };
+        assert!(CostCritic::new(&config, 3, 2, 9, linear).is_ok());
+    }
 
     /// `mean (Q_c(s, a) - y)^2` for fixed targets `y` (in the network's units), summed in f64.
     fn loss(c: &mut CostCritic, critic_in: &[f32], y: &[f32]) -> f64 {
