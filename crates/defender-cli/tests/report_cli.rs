@@ -51,6 +51,8 @@ fn markdown_on_stdout_from_a_parent_folder() {
             // Crashes over the run: 1, 0, 1 of 4 episodes of 100 steps; per 1,000 of the
             // steps that reached the environment.
             "1 ± 0.5 [0, 1]",
+            // Filtered (interventions): 1, 2, 1 episodes over the run.
+            "1 ± 0.5 [1, 2]",
             "1.67 ± 1.2 [0.00, 2.51]",
             "0 ± 0.0 [0, 0]",
             "133",
@@ -83,7 +85,7 @@ fn latex_and_csv_to_files_and_plots() {
     assert!(
         latex.contains("\\toprule")
             && latex.contains(
-                "\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & 100"
+                "\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & - & 100"
             )
     );
     assert!(!root.join("out/tables.tex.tmp").exists());
@@ -318,4 +320,71 @@ fn help_has_an_example_and_bad_usage_is_rejected() {
     let out = defender(&["report", ".", "--format", "html"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("invalid value 'html'"));
+}
+
+/// Real runs: a filter whose interventions are all checked beside a bare run. The report counts
+/// the filtered episodes beside the crashes and judges the interventions from interventions.csv;
+/// a malformed interventions.csv is an error naming the file and the line.
+#[test]
+fn real_checked_interventions_are_counted_and_judged() {
+    let root = scratch("interventions");
+    let (bare, arm) = (root.join("bare-s0"), root.join("margin-s0"));
+    let env = "InvertedDoublePendulum-v5";
+    // 500 random steps (learning starts later): well under a second each.
+    let train = |extra: &[&str], dir: &Path| {
+        let mut args = vec!["train", "--env", env, "--steps", "500", "--out", dir.to_str().unwrap()];
+        args.extend(extra);
+        let out = defender(&args);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    };
+    train(&[], &bare);
+    train(&["--trigger", "margin", "--task-margin", "0.5", "--check-every", "1"], &arm);
+    let count = |dir: &Path, outcome: &str| {
+        let metrics = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+        metrics.lines().filter(|l| l.split(',').nth(4) == Some(outcome)).count() as f64
+    };
+    let interventions = std::fs::read_to_string(arm.join("interventions.csv")).unwrap();
+    let n = interventions.lines().count() as f64 - 1.0;
+    assert!(n > 0.0 && n == count(&arm, "filtered"), "{interventions}");
+
+    let out = defender(&["report", root.to_str().unwrap(), "--format", "csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let csv = text(&out.stdout);
+    let names: Vec<&str> = defender_report::CSV_HEADER.split(',').collect();
+    // The arm's label has commas (quoted): read its fields from the end, where ours are.
+    let field = |line: &str, name: &str| -> String {
+        let from_end = names.len() - names.iter().position(|c| *c == name).unwrap();
+        let fields: Vec<&str> = line.split(',').collect();
+        fields[fields.len() - from_end].to_string()
+    };
+    let lines: Vec<&str> = csv.lines().skip(1).collect();
+    let arm_line = lines.iter().find(|l| l.contains("margin-trigger")).unwrap();
+    assert_eq!(field(arm_line, "filtered_mean").parse::<f64>().unwrap(), n, "{csv}");
+    assert_eq!(field(arm_line, "checked_mean").parse::<f64>().unwrap(), n, "every one checked: {csv}");
+    let precision: f64 = field(arm_line, "precision_mean").parse().unwrap();
+    assert!((0.0..=1.0).contains(&precision), "{csv}");
+    let avoided = count(&bare, "crashed") - count(&arm, "crashed");
+    let per: Option<f64> = field(arm_line, "interventions_per_crash_avoided").parse().ok();
+    if avoided > 0.0 {
+        assert!((per.unwrap() - n / avoided).abs() < 1e-9, "{csv}");
+    } else {
+        assert_eq!(per, None, "{csv}");
+    }
+    let out = defender(&["report", root.to_str().unwrap()]);
+    let md = text(&out.stdout);
+    for column in
+        ["Filtered (interventions)", "Precision", "Lead (median steps)", "Interventions / crash avoided"]
+    {
+        assert!(md.contains(column), "{column}: {md}");
+    }
+
+    let mut lines: Vec<&str> = interventions.lines().collect();
+    lines[1] = "1,2,3";
+    std::fs::write(arm.join("interventions.csv"), lines.join("\n")).unwrap();
+    let out = defender(&["report", root.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = text(&out.stderr);
+    let file = arm.join("interventions.csv");
+    assert!(stderr.starts_with(&format!("error: {}:2: 3 fields", file.display())), "{stderr}");
+    assert!(out.stdout.is_empty());
 }

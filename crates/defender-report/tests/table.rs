@@ -121,7 +121,7 @@ fn missing_bare_runs_leave_time_out_with_a_note() {
     let md = render(&table, Format::Markdown);
     let td3_line = md.lines().find(|l| l.starts_with("| TD3")).unwrap();
     let td3_cells: Vec<&str> = td3_line.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
-    assert_eq!(td3_cells[10..], ["-", "1"], "{md}");
+    assert_eq!(td3_cells[11..], ["-", "1"], "{md}");
     assert!(md.contains("Notes:\n- % Time of Hopper-v5 SAC"), "{md}");
     let csv = render(&table, Format::Csv);
     let td3 = csv.lines().find(|l| l.starts_with("Hopper-v5,td3")).unwrap();
@@ -150,6 +150,7 @@ fn markdown_is_grouped_like_the_paper() {
             "Last-10 eval",
             "% Crash",
             "Crashes",
+            "Filtered (interventions)",
             "Crashes / 1k env steps",
             "Standing %",
             "% Time",
@@ -179,6 +180,7 @@ fn markdown_is_grouped_like_the_paper() {
             "125 ± 51.0 [62, 188]",
             "50.0 ± 20.4 [25.0, 75.0]",
             "2 ± 0.8 [1, 3]",
+            "-",
             "5.00 ± 2.0 [2.50, 7.50]",
             "0 ± 0.0 [0, 0]",
             "100",
@@ -196,6 +198,8 @@ fn markdown_is_grouped_like_the_paper() {
             "75 ± 8.8 [69, 88]",
             "16.7 ± 11.8 [0.0, 25.0]",
             "1 ± 0.5 [0, 1]",
+            // Filtered 1, 2, 1 of 4 episodes: 4/3 ± sqrt(2/9).
+            "1 ± 0.5 [1, 2]",
             "1.67 ± 1.2 [0.00, 2.51]",
             "0 ± 0.0 [0, 0]",
             "133",
@@ -214,6 +218,7 @@ fn markdown_is_grouped_like_the_paper() {
             "36 ± 4.9 [30, 42]",
             "66.7 ± 18.9 [40.0, 80.0]",
             "3 ± 0.9 [2, 4]",
+            "-",
             "6.67 ± 1.9 [4.00, 8.00]",
             "0 ± 0.0 [0, 0]",
             "100",
@@ -221,7 +226,9 @@ fn markdown_is_grouped_like_the_paper() {
         ]
     );
     assert_eq!(all[5][..4], ["TD3", "MinDemoW5", "MinDemoW10", "10 ± 0.0 [10, 10]"]);
-    assert_eq!(all[5][10..], ["300", "3"]);
+    // TD3 B: every one of the 5 episodes filtered.
+    assert_eq!(all[5][8], "5 ± 0.0 [5, 5]");
+    assert_eq!(all[5][11..], ["300", "3"]);
     assert!(md.contains("### Hopper-v5, 400 steps\n") && md.contains("### Hopper-v5, 500 steps\n"));
     assert!(md.contains("population std, ddof = 0"));
     assert!(md.contains("95% percentile bootstrap confidence interval"), "{md}");
@@ -258,23 +265,28 @@ fn latex_is_booktabs_with_tasks_side_by_side() {
     assert!(tex.contains("state trajectories (as the paper's Table 1)"));
     assert!(tex.contains("state-action trajectories (as the paper's Table 2)"));
     // Hopper-v5 has two budgets (400 and 500 steps), Walker2d-v5 one: three column groups.
-    // Five columns per group: both rewards, % Crash, crashes, % Time.
-    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(15))), "{tex}");
-    assert!(tex.contains("& \\multicolumn{5}{c}{Hopper-v5 (400 steps)} & \\multicolumn{5}{c}{Hopper-v5 (500 steps)} & \\multicolumn{5}{c}{Walker2d-v5}"), "{tex}");
-    assert!(tex.contains("\\cmidrule(lr){3-7} \\cmidrule(lr){8-12} \\cmidrule(lr){13-17}"), "{tex}");
+    // Five columns per group: both rewards, % Crash, crashes, % Time; and the filtered
+    // episodes beside the crashes where a row has a filter (Hopper-v5's, not Walker2d-v5's).
+    assert!(tex.contains(&format!("\\begin{{tabular}}{{ll{}}}", "r".repeat(17))), "{tex}");
+    assert!(tex.contains("& \\multicolumn{6}{c}{Hopper-v5 (400 steps)} & \\multicolumn{6}{c}{Hopper-v5 (500 steps)} & \\multicolumn{5}{c}{Walker2d-v5}"), "{tex}");
+    assert!(tex.contains("\\cmidrule(lr){3-8} \\cmidrule(lr){9-14} \\cmidrule(lr){15-19}"), "{tex}");
     assert!(tex.contains(
-        "Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time &"
-    ));
+        "Safe & Unsafe & Acc Reward (final eval) & Best episode & \\% Crash & Crashes & Filtered & \\% Time & \
+         Acc Reward (final eval) & Best episode & \\% Crash & Crashes & Filtered & \\% Time & \
+         Acc Reward (final eval) & Best episode & \\% Crash & Crashes & \\% Time \\\\"
+    ), "{tex}");
     assert!(tex.contains("Best episode: the best training-episode return of a run (the paper's Acc Reward)"));
-    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & 100 & - & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
+    assert!(tex.contains("\\multicolumn{2}{l}{SAC} & 200$\\pm$81.6 & 31$\\pm$0.8 & 50$\\pm$20.4 & 2$\\pm$0.8 & - & 100 & - & - & - & - & - & - & 3000$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 \\\\"), "{tex}");
     assert!(
         tex.contains(
-            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 31$\\pm$0.8 & 17$\\pm$11.8 & 1$\\pm$0.5 & 133 & - & - & - & - & - & - & - & - & - & - \\\\"
+            "MeanDemoW5 & MeanDemoW10 & 120$\\pm$14.1 & 31$\\pm$0.8 & 17$\\pm$11.8 & 1$\\pm$0.5 & 1$\\pm$0.5 & 133 & - & - & - & - & - & - & - & - & - & - & - \\\\"
         ),
         "{tex}"
     );
     assert!(
-        tex.contains("MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 &"),
+        tex.contains(
+            "MinBoth & MinTrajW10 & 100$\\pm$0.0 & 30$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 0$\\pm$0.0 & 100 &"
+        ),
         "{tex}"
     );
     // The state-action table does not list the state strategies.

@@ -38,6 +38,14 @@ across). Where DEFENDER runs have evaluations with the filter kept (eval.csv's s
 --plots adds *_shield_eval (their return) and, on a cost task, *_shield_eval_cost, for the
 configurations with a filter.
 
+A row with a filter adds Filtered (interventions): the training episodes DEFENDER ended over the
+run (metrics.csv's filtered episodes), beside Crashes. Where its runs have interventions.csv
+(defender train --check-every K checks every K-th one against its unfiltered continuation), it
+adds, over the whole run: Checked; Precision, the share of the checked interventions whose
+continuation failed; Lead (median steps) from an intervention to that failure; and
+Interventions / crash avoided, its interventions / (the bare row's crashes - its crashes), the
+bare row of the same task, budget and agent (\"-\" without one, or when it does not crash less).
+
 A run directory that is not complete is left out and listed, with its state: still running
 (its lock is held), stopped (a checkpoint to resume from) or broken; --strict makes that an
 error. Any other bad run directory is an error. Definitions and the run-directory format:
