@@ -1,8 +1,9 @@
 //! The safe-RL field's cost measures, for a task whose every step may cost (Safety-Gymnasium's
 //! velocity tasks) and whose runs are held to an episode cost limit (25 there, OmniSafe's
-//! benchmark setting): the cost rate of training, the evaluation cost, and the training episodes
-//! over the limit, counted and as a share. A crash task costs at most 1 an episode; it is read through its
-//! crashes instead (`crate::violations`) and has no limit here.
+//! benchmark setting): the cost rate of training, the evaluation cost (and, from
+//! `eval_episodes.csv`, the share of evaluation episodes within the limit: `crate::eval_episodes`),
+//! and the training episodes over the limit, counted and as a share. A crash task costs at most 1
+//! an episode; it is read through its crashes instead (`crate::violations`) and has no limit here.
 //!
 //! The limits are not this crate's to know: they belong to the task registry of
 //! defender-mujoco, which needs the MuJoCo runtime. Whoever builds a report passes them in
@@ -64,6 +65,12 @@ pub struct CostColumns {
     /// Evaluation cost (last-10): [`Run::eval_cost`]; `None` when no run of the row has an
     /// evaluation with a cost.
     pub eval_cost: Option<Estimate>,
+    /// Eval episodes cost <= L (last-10): [`Run::eval_within_limit`], over the seeds whose runs
+    /// have `eval_episodes.csv`; `None` when none has.
+    pub eval_within_limit: Option<Estimate>,
+    /// Shielded episodes cost <= L (last-10): [`Run::shield_within_limit`], over the seeds whose
+    /// runs have shielded episodes in `eval_episodes.csv`; `None` when none has.
+    pub shield_within_limit: Option<Estimate>,
     /// Episodes over the limit, counted: [`Run::over_limit`].
     pub over_limit: Estimate,
     /// % episodes over the limit: [`Run::over_limit_pct`].
@@ -74,14 +81,23 @@ impl CostColumns {
     /// The columns of `runs` (one row's seeds) under `limit`; `None` without runs.
     pub fn of(limit: f64, runs: &[&Run]) -> Option<Self> {
         let values = |f: &dyn Fn(&Run) -> f64| -> Vec<f64> { runs.iter().map(|r| f(r)).collect() };
-        let eval: Vec<f64> = runs.iter().filter_map(|r| r.eval_cost()).collect();
+        let some =
+            |f: &dyn Fn(&Run) -> Option<f64>| -> Vec<f64> { runs.iter().filter_map(|r| f(r)).collect() };
         Some(Self {
             limit,
             cost_rate: Estimate::of(&values(&|r| r.violations().cost_rate))?,
-            eval_cost: Estimate::of(&eval),
+            eval_cost: Estimate::of(&some(&|r| r.eval_cost())),
+            eval_within_limit: Estimate::of(&some(&|r| r.eval_within_limit(limit))),
+            shield_within_limit: Estimate::of(&some(&|r| r.shield_within_limit(limit))),
             over_limit: Estimate::of(&values(&|r| r.over_limit(limit) as f64))?,
             over_limit_pct: Estimate::of(&values(&|r| r.over_limit_pct(limit)))?,
         })
+    }
+
+    /// Whether the row has a share of evaluation episodes within the limit (its runs, or some of
+    /// them, have `eval_episodes.csv`).
+    pub fn has_eval_episodes(&self) -> bool {
+        self.eval_within_limit.is_some() || self.shield_within_limit.is_some()
     }
 }
 

@@ -19,7 +19,10 @@ use crate::table::Table;
 /// `interventions_seeds` on, are empty for a row without `interventions.csv` (they are over the
 /// `interventions_seeds` seeds that have it; `precision_*` empty when none was checked,
 /// `lead_median_steps_*` when no continuation failed, `interventions_per_crash_avoided` without
-/// a bare row or when the row does not crash less).
+/// a bare row or when the row does not crash less). The shares of evaluation episodes within the
+/// limit, `eval_within_limit_last10_*` and `shield_eval_within_limit_last10_*` (0 to 1), are empty
+/// for a task without a limit and for a row without `eval_episodes.csv` (the shielded one also
+/// for a row without shielded episodes).
 pub const CSV_HEADER: &str = "env,algo,budget_steps,budget_episodes,strategy,safe,unsafe,mode,num_demos,\
 n_seeds,seeds,acc_reward_mean,acc_reward_std,crash_pct_mean,crash_pct_std,filtered_pct_mean,\
 filtered_pct_std,time_pct_mean,time_pct_std,time_pct_seeds,wall_seconds_mean,wall_seconds_std,\
@@ -39,7 +42,10 @@ crashes_after_warmup_mean,crashes_after_warmup_std,crashes_after_warmup_ci_lo,cr
 filtered_mean,filtered_std,filtered_ci_lo,filtered_ci_hi,interventions_seeds,\
 checked_mean,checked_std,checked_ci_lo,checked_ci_hi,precision_mean,precision_std,precision_ci_lo,precision_ci_hi,\
 lead_median_steps_mean,lead_median_steps_std,lead_median_steps_ci_lo,lead_median_steps_ci_hi,\
-interventions_per_crash_avoided";
+interventions_per_crash_avoided,\
+eval_within_limit_last10_mean,eval_within_limit_last10_std,eval_within_limit_last10_ci_lo,eval_within_limit_last10_ci_hi,\
+shield_eval_within_limit_last10_mean,shield_eval_within_limit_last10_std,shield_eval_within_limit_last10_ci_lo,\
+shield_eval_within_limit_last10_ci_hi";
 
 pub(crate) fn csv(table: &Table) -> String {
     let mut out = String::from(CSV_HEADER);
@@ -135,6 +141,13 @@ pub(crate) fn csv(table: &Table) -> String {
             fields.extend(interval(e));
         }
         fields.push(checked.and_then(|c| c.per_crash_avoided).map(|v| v.to_string()).unwrap_or_default());
+        for e in [
+            costs.and_then(|c| c.eval_within_limit.as_ref()),
+            costs.and_then(|c| c.shield_within_limit.as_ref()),
+        ] {
+            fields.extend(mean_std(e));
+            fields.extend(interval(e));
+        }
         let fields: Vec<String> = fields.into_iter().map(csv_field).collect();
         out.push_str(&fields.join(","));
         out.push('\n');

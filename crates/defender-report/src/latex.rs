@@ -36,6 +36,10 @@ const PER_TASK: usize = 5;
 /// the limit (counted, and in %).
 const PER_COST_TASK: usize = 4;
 
+/// Columns a task with an episode cost limit whose rows have `eval_episodes.csv` adds: the share
+/// of evaluation episodes within the limit (and of the shielded ones, with shielded evaluations).
+const PER_EVAL_EPISODES_TASK: usize = 1;
+
 /// Columns a task whose rows have shielded evaluations adds: Shielded eval (last-10) and
 /// % Shield-ended, and with a cost limit Shielded cost (last-10).
 const PER_SHIELD_TASK: usize = 2;
@@ -49,6 +53,8 @@ const PER_CHECKED_TASK: usize = 3;
 struct Extras {
     limit: Option<f64>,
     shield: bool,
+    /// The share of evaluation episodes within the limit (a task with a limit only).
+    within: bool,
     filtered: bool,
     checked: bool,
 }
@@ -59,6 +65,7 @@ impl Extras {
         Self {
             limit: limit_of(rows, env, budget),
             shield: shielded(rows, env, budget),
+            within: task().any(|r| r.costs.is_some_and(|c| c.has_eval_episodes())),
             filtered: task().any(|r| r.filtered.is_some()),
             checked: task().any(|r| r.interventions.is_some()),
         }
@@ -66,7 +73,8 @@ impl Extras {
 
     /// The task's columns.
     fn width(&self) -> usize {
-        let cost = if self.limit.is_some() { PER_COST_TASK + usize::from(self.shield) } else { 0 };
+        let within = if self.within { PER_EVAL_EPISODES_TASK * (1 + usize::from(self.shield)) } else { 0 };
+        let cost = if self.limit.is_some() { PER_COST_TASK + usize::from(self.shield) + within } else { 0 };
         PER_TASK
             + if self.shield { PER_SHIELD_TASK } else { 0 }
             + usize::from(self.filtered)
@@ -116,6 +124,12 @@ pub(crate) fn latex(table: &Table) -> String {
         } else {
             ""
         };
+        let within_caption = if extras.iter().any(|x| x.within) {
+            " Eval ep. cost $\\leq$ L: the share of the evaluation episodes of the last 10 evaluations \
+             whose cost is at most L (Shielded ep.: of the shielded episodes), from eval\\_episodes.csv."
+        } else {
+            ""
+        };
         let filtered_caption = if extras.iter().any(|x| x.filtered) {
             " Filtered: training episodes the filter ended (interventions), over the run."
         } else {
@@ -142,7 +156,7 @@ pub(crate) fn latex(table: &Table) -> String {
             "\n\\begin{{table}}[tb]\n\\caption{{Performance, safety and computation time, {}. Acc Reward \
              (final eval): mean return of the final evaluation; Best episode: the best training-episode \
              return of a run (the paper's Acc Reward); \\% Crash: crashed / all training episodes; Crashes: crashed training \
-             episodes over the run; mean $\\pm$ std over seeds.{filtered_caption}{cost_caption}{checked_caption}{shield_caption}}}\n\
+             episodes over the run; mean $\\pm$ std over seeds.{filtered_caption}{cost_caption}{within_caption}{checked_caption}{shield_caption}}}\n\
              \\centering\n\\resizebox{{\\textwidth}}{{!}}{{%\n\\begin{{tabular}}{{{}{}}}\n\\toprule\n",
             tex_escape(mode_title(mode)),
             "l".repeat(labels),
@@ -169,10 +183,16 @@ pub(crate) fn latex(table: &Table) -> String {
                 out.push_str(" & Filtered");
             }
             if let Some(limit) = x.limit {
-                let shielded_cost = if x.shield { " & Shielded cost (last-10)" } else { "" };
+                let eval_within =
+                    if x.within { format!(" & Eval ep. cost $\\leq$ {limit}") } else { String::new() };
+                let shielded_cost = match (x.shield, x.within) {
+                    (false, _) => String::new(),
+                    (true, false) => " & Shielded cost (last-10)".to_string(),
+                    (true, true) => format!(" & Shielded cost (last-10) & Shielded ep. cost $\\leq$ {limit}"),
+                };
                 let _ = write!(
                     out,
-                    " & Cost rate & Eval cost (last-10){shielded_cost} & Cost $>$ {limit} & \\% cost $>$ {limit}"
+                    " & Cost rate & Eval cost (last-10){eval_within}{shielded_cost} & Cost $>$ {limit} & \\% cost $>$ {limit}"
                 );
             }
             if x.checked {
@@ -239,7 +259,7 @@ pub(crate) fn latex(table: &Table) -> String {
                                 let _ = write!(out, " & {}", estimate_cell(r.filtered.as_ref(), 0, 1));
                             }
                             if x.limit.is_some() {
-                                out.push_str(&cost_cells(r, x.shield));
+                                out.push_str(&cost_cells(r, x));
                             }
                             if x.checked {
                                 out.push_str(&checked_cells(r));
@@ -283,19 +303,29 @@ fn checked_cells(row: &Row) -> String {
 }
 
 /// The cost cells of a row of a task with a cost limit, each starting with ` & ` (with the
-/// shielded evaluation's cost after the evaluation cost, when the task's table has it).
-fn cost_cells(row: &Row, shielded: bool) -> String {
-    // The cost rate (~0.05) keeps its std to the mean's three decimals ([`pm_to`]).
+/// share of evaluation episodes within the limit after the evaluation cost, and the shielded
+/// evaluation's cost and share after them, when the task's table has them).
+fn cost_cells(row: &Row, x: &Extras) -> String {
+    // The cost rate (~0.05) keeps its std to the mean's three decimals ([`pm_to`]); a share (0
+    // to 1) has two decimals.
     let costs = row.costs.as_ref();
-    let shield = if shielded {
-        format!(" & {}", estimate_cell(row.shield.as_ref().map(|s| &s.cost), 1, 1))
+    let within = |e: Option<&Estimate>| {
+        if x.within { format!(" & {}", estimate_cell(e, 2, 2)) } else { String::new() }
+    };
+    let shield = if x.shield {
+        format!(
+            " & {}{}",
+            estimate_cell(row.shield.as_ref().map(|s| &s.cost), 1, 1),
+            within(costs.and_then(|c| c.shield_within_limit.as_ref()))
+        )
     } else {
         String::new()
     };
     format!(
-        " & {} & {}{shield} & {} & {}",
+        " & {} & {}{}{shield} & {} & {}",
         estimate_cell(costs.map(|c| &c.cost_rate), 3, 3),
         estimate_cell(costs.and_then(|c| c.eval_cost.as_ref()), 1, 1),
+        within(costs.and_then(|c| c.eval_within_limit.as_ref())),
         estimate_cell(costs.map(|c| &c.over_limit), 0, 1),
         estimate_cell(costs.map(|c| &c.over_limit_pct), 1, 1)
     )

@@ -10,6 +10,7 @@ mod curves;
 mod discover;
 mod error;
 mod eval_csv;
+mod eval_episodes;
 mod figure;
 mod intervention_columns;
 mod interventions;
@@ -37,6 +38,7 @@ pub use costs::{CostColumns, CostLimits};
 pub use csv_out::CSV_HEADER;
 pub use discover::{RunSet, find_run_dirs, load_runs};
 pub use error::{ReportError, Result};
+pub use eval_episodes::{EvalEpisodeRow, EvalEpisodeShield, parse_eval_episodes};
 pub use intervention_columns::InterventionColumns;
 pub use interventions::{
     INTERVENTIONS_FILE, INTERVENTIONS_HEADER, InterventionRow, InterventionSummary, intervention_row,

@@ -9,6 +9,7 @@ use defender_rl::Budget;
 use crate::cells::{demos_text, mode_title, number, pm_ci, pm_ci_or_dash, pm_ci_to, sections, time};
 use crate::intervention_columns::InterventionColumns;
 use crate::run::DefenderSettings;
+use crate::stats::Estimate;
 use crate::table::Table;
 
 /// What the columns mean, printed under the tables (docs/run-directory.md has the same
@@ -45,6 +46,18 @@ evaluations. Episodes cost > L: training episodes whose summed cost exceeds L, c
 run. % episodes cost > L: the same / all training episodes x 100; like % Crash, the episodes a \
 filter ends join its denominator, so it can fall while the count rises. Each over seeds as the \
 columns above.
+";
+
+/// What the shares of evaluation episodes within the limit mean, printed under the cost legend
+/// when a table has them.
+const EVAL_EPISODES_LEGEND: &str = "
+Eval episodes cost ≤ L (last-10) (tasks with a cost limit L, runs with eval_episodes.csv): of the \
+evaluation episodes of the run's last 10 evaluations, the share whose cost is at most L (an \
+episode at L kept the constraint), from eval_episodes.csv's per-episode costs: where Eval cost \
+(last-10) averages the costs, this says how many episodes kept the limit. Shielded episodes cost \
+≤ L (last-10): the same share of the shielded episodes (DEFENDER runs). Each over the seeds with \
+eval_episodes.csv, as the columns above; - for a row without it (runs written before the file \
+existed).
 ";
 
 /// What the shielded columns mean, printed under the legend when a table has them.
@@ -107,6 +120,13 @@ pub(crate) fn markdown(table: &Table) -> String {
             // interventions would have led to, when a row's runs checked them.
             let filtered = rows().any(|r| r.filtered.is_some());
             let checked = rows().any(|r| r.interventions.is_some());
+            // The share of evaluation episodes within the limit, beside the evaluation cost, when
+            // a row's runs have eval_episodes.csv.
+            let within = rows().any(|r| r.costs.is_some_and(|c| c.has_eval_episodes()));
+            let eval_within =
+                limit.map(|l| format!("Eval episodes cost ≤ {l} (last-10)")).unwrap_or_default();
+            let shield_within =
+                limit.map(|l| format!("Shielded episodes cost ≤ {l} (last-10)")).unwrap_or_default();
             let over = limit.map(|l| format!("Episodes cost > {l}")).unwrap_or_default();
             let over_pct = limit.map(|l| format!("% episodes cost > {l}")).unwrap_or_default();
             header.extend(["Acc Reward (final eval)", "Best episode (paper's Acc Reward)", "Last-10 eval"]);
@@ -123,8 +143,14 @@ pub(crate) fn markdown(table: &Table) -> String {
             header.push("Crashes / 1k env steps");
             if limit.is_some() {
                 header.extend(["Cost rate", "Eval cost (last-10)"]);
+                if within {
+                    header.push(eval_within.as_str());
+                }
                 if shielded {
                     header.push("Shielded cost (last-10)");
+                    if within {
+                        header.push(shield_within.as_str());
+                    }
                 }
                 header.extend([over.as_str(), over_pct.as_str()]);
             }
@@ -173,8 +199,14 @@ pub(crate) fn markdown(table: &Table) -> String {
                         costs.map_or_else(|| "-".into(), |c| pm_ci_to(&c.cost_rate, 3, 3)),
                         pm_ci_or_dash(costs.and_then(|c| c.eval_cost.as_ref()), 1),
                     ]);
+                    if within {
+                        line.push(share(costs.and_then(|c| c.eval_within_limit.as_ref())));
+                    }
                     if shielded {
                         line.push(pm_ci_or_dash(shield.map(|s| &s.cost), 1));
+                        if within {
+                            line.push(share(costs.and_then(|c| c.shield_within_limit.as_ref())));
+                        }
                     }
                     line.extend([
                         pm_ci_or_dash(costs.map(|c| &c.over_limit), 0),
@@ -207,6 +239,9 @@ pub(crate) fn markdown(table: &Table) -> String {
     if table.rows.iter().any(|r| r.costs.is_some()) {
         out.push_str(COST_LEGEND);
     }
+    if table.rows.iter().any(|r| r.costs.is_some_and(|c| c.has_eval_episodes())) {
+        out.push_str(EVAL_EPISODES_LEGEND);
+    }
     if !table.notes.is_empty() {
         out.push_str("\nNotes:\n");
         for note in &table.notes {
@@ -214,6 +249,11 @@ pub(crate) fn markdown(table: &Table) -> String {
         }
     }
     out
+}
+
+/// A share (0 to 1) over seeds, two decimals as Precision; `-` for a row without it.
+fn share(estimate: Option<&Estimate>) -> String {
+    estimate.map_or_else(|| "-".into(), |e| pm_ci_to(e, 2, 2))
 }
 
 /// The checked interventions' four cells: Checked, Precision (a share: two decimals), Lead and

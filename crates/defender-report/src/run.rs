@@ -311,6 +311,9 @@ pub struct Run {
     /// From `interventions.csv`, in order: every episode DEFENDER ended; `None` for a run
     /// without the file (a bare run, or one written before it existed).
     pub interventions: Option<Vec<crate::interventions::InterventionRow>>,
+    /// From `eval_episodes.csv`, in order: every evaluation episode; `None` for a run without
+    /// the file (one written before it existed).
+    pub eval_episodes: Option<Vec<crate::eval_episodes::EvalEpisodeRow>>,
 }
 
 impl Run {
@@ -339,7 +342,16 @@ impl Run {
         let eval_path = dir.join(EVAL_FILE);
         let evaluations = parse_eval(&eval_path, &read(&eval_path)?)?;
         let interventions = crate::interventions::load_interventions(dir)?;
-        let run = Run { dir: dir.to_path_buf(), config, summary, episodes, evaluations, interventions };
+        let eval_episodes = crate::eval_episodes::load_eval_episodes(dir)?;
+        let run = Run {
+            dir: dir.to_path_buf(),
+            config,
+            summary,
+            episodes,
+            evaluations,
+            interventions,
+            eval_episodes,
+        };
         run.check()?;
         Ok(run)
     }

@@ -225,6 +225,9 @@ impl Table {
                 interventions: InterventionColumns::of(&group),
             };
             table.notes.extend(crate::intervention_columns::notes(&row.label(), &group));
+            if let Some(limit) = limit {
+                table.notes.extend(crate::eval_episodes::notes(&row.label(), &group, limit));
+            }
             if !missing.is_empty() {
                 let list: Vec<String> = missing.iter().map(u64::to_string).collect();
                 let consequence = if ratios.is_empty() {
