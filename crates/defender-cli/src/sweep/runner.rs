@@ -97,20 +97,30 @@ fn log_tail(path: &Path) -> String {
 /// The run's summary: its one-line summary (`... steps, ... episodes, Acc Reward ...`), the log's
 /// last line that is not a progress line, the closing `run directory:` line or the evaluation
 /// line, followed by that evaluation line (`evaluation (mean of the last 10 ...`) when the run
-/// printed one after it.
+/// printed one after it, and by a DEFENDER run's `interventions:` line.
 fn summary_line(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap_or_default();
     let lines: Vec<&str> = text.lines().map(str::trim).collect();
     let is_eval = |l: &str| l.starts_with("evaluation (");
+    let is_interventions = |l: &str| l.starts_with("interventions:");
     let Some(at) = lines.iter().rposition(|l| {
-        !l.is_empty() && !l.starts_with("run directory:") && !l.starts_with("progress:") && !is_eval(l)
+        !l.is_empty()
+            && !l.starts_with("run directory:")
+            && !l.starts_with("progress:")
+            && !is_eval(l)
+            && !is_interventions(l)
     }) else {
         return String::new();
     };
-    match lines.get(at + 1).filter(|l| is_eval(l)) {
+    let mut line = match lines.get(at + 1).filter(|l| is_eval(l)) {
         Some(eval) => format!("{}; {eval}", lines[at]),
         None => lines[at].to_string(),
+    };
+    if let Some(interventions) = lines[at..].iter().find(|l| is_interventions(l)) {
+        line.push_str("; ");
+        line.push_str(interventions);
     }
+    line
 }
 
 fn spawn(binary: &Path, root: &Path, run: &PlannedRun, state: RunState) -> Result<Running> {
