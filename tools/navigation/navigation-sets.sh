@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The episode sets of docs/results-navigation.md, for one task, remade bit for bit (they are too
-# large for git: about 20-40 MB each; .gitignore: results/**/*.npz):
+# large for git: 11-21 MB each on the Car; .gitignore: results/**/*.npz):
 #
 #   ppolag-s0/episodes.npz   seed 0's recorded training episodes (the demonstrations' learner)
 #   ppolag-s1/episodes.npz   seed 1's, the held-out episodes the screens replay
@@ -21,7 +21,7 @@
 # making) they are made in place, in results/navigation/TASK/ (the run folders' CSV files are
 # committed), and the file is written.
 #
-#   bash tools/navigation/navigation-sets.sh SafetyCarGoal1-v0            # about 1 hour on 2 busy cores
+#   bash tools/navigation/navigation-sets.sh SafetyCarGoal1-v0            # about 40 minutes on 2 busy cores
 #   bash tools/navigation/navigation-sets.sh SafetyCarGoal1-v0 /tmp/car   # resumable in /tmp/car
 #
 # Needs tools/peers/omnisafe-venv.sh's venv with the wheel installed (PY to use another python).

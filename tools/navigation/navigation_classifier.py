@@ -111,7 +111,8 @@ class Net:
         a2 = h1 @ w2 + b2
         h2 = np.maximum(a2, 0)
         z = (h2 @ w3 + b3)[:, 0]
-        g = ((1.0 / (1.0 + np.exp(-z)) - y) / len(y)).astype(w3.dtype)[:, None]
+        with np.errstate(over="ignore"):  # exp(-z) = inf for a very negative z: the sigmoid's 0
+            g = ((1.0 / (1.0 + np.exp(-z)) - y) / len(y)).astype(w3.dtype)[:, None]
         d2 = (g @ w3.T) * (a2 > 0)
         d1 = (d2 @ w2.T) * (a1 > 0)
         return [x.T @ d1, d1.sum(0), h1.T @ d2, d2.sum(0), h2.T @ g, g.sum(0)]
@@ -171,7 +172,8 @@ class Classifier:
     def probabilities(self, states: np.ndarray) -> np.ndarray:
         """The probability at every step of an episode (the network does not change within one)."""
         x = windows(((states - self.mean) * self.inv_std).astype(np.float32))
-        return 1.0 / (1.0 + np.exp(-self.net.logits(x).astype(np.float64)))
+        with np.errstate(over="ignore"):
+            return 1.0 / (1.0 + np.exp(-self.net.logits(x).astype(np.float64)))
 
     def end(self, states: np.ndarray, unsafe: bool) -> None:
         """An episode it did not end: with own episodes on, it joins its group, then UPDATE steps."""
