@@ -81,7 +81,9 @@ fn search(path: &Path, depth: usize, found: &mut Vec<PathBuf>) -> Result<()> {
     for entry in std::fs::read_dir(path).map_err(io_err(path))? {
         let entry = entry.map_err(io_err(path))?;
         let hidden = entry.file_name().to_string_lossy().starts_with('.');
-        if !hidden && entry.file_type().map_err(io_err(entry.path()))?.is_dir() {
+        // A symbolic link to a directory counts as one: an experiment shares a run of another
+        // whose configuration is identical by linking to it (docs/experiments.md).
+        if !hidden && entry.path().is_dir() {
             children.push(entry.path());
         }
     }

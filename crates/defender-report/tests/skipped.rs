@@ -113,3 +113,21 @@ fn a_sweep_directory_is_searched_but_is_not_a_run() {
     let set = load_runs(&[&sweep]).unwrap();
     assert_eq!((set.runs.len(), set.skipped.len()), (1, 0));
 }
+
+/// An experiment shares another's run of the same configuration by a symbolic link to it: the
+/// link is found as a run of the folder it sits in, and a run reached both ways counts once.
+#[test]
+fn a_linked_run_directory_is_found_and_counted_once() {
+    let root = tempfile::tempdir().unwrap();
+    let screen = root.path().join("screen");
+    let shared = RunSpec::new("sac", 0, A).write(&screen.join("Hopper-v5"));
+    let finals = root.path().join("finals");
+    let own = RunSpec::new("sac", 2, A).write(&finals.join("Hopper-v5"));
+    let link = finals.join("Hopper-v5").join(shared.file_name().unwrap());
+    std::os::unix::fs::symlink(&shared, &link).unwrap();
+
+    assert_eq!(find_run_dirs(&[&finals]).unwrap(), vec![link.clone(), own.clone()]);
+    assert_eq!(load_runs(&[&finals]).unwrap().runs.len(), 2);
+    // Both folders named: the linked run once (by its first path), not twice.
+    assert_eq!(find_run_dirs(&[&finals, &screen]).unwrap().len(), 2);
+}
