@@ -129,8 +129,8 @@ fn files_under(dir: &Path, suffix: &str, found: &mut Vec<PathBuf>) {
 }
 
 /// What a user reads: the READMEs, the changelog, the docs, the Python package, the crates'
-/// sources (their doc comments and `--help`), the experiment files, tools/, scripts/ and the
-/// Makefile.
+/// sources (their doc comments and `--help`), the experiment files, the results' arms files,
+/// tools/, scripts/ and the Makefile.
 fn user_facing_files() -> Vec<PathBuf> {
     let root = root();
     let mut files: Vec<PathBuf> = ["README.md", "CHANGELOG.md", "python/README.md", "Makefile"]
@@ -147,6 +147,16 @@ fn user_facing_files() -> Vec<PathBuf> {
         if path.extension().is_some_and(|e| e == "toml") {
             files.push(path);
         }
+    }
+    // The arms files the results pages' tables are made from (results/*/arms.txt and the like).
+    for entry in std::fs::read_dir(root.join("results")).unwrap() {
+        let Ok(listing) = std::fs::read_dir(entry.unwrap().path()) else { continue };
+        let mut texts: Vec<PathBuf> = listing
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "txt"))
+            .collect();
+        texts.sort();
+        files.extend(texts);
     }
     for entry in std::fs::read_dir(root.join("crates")).unwrap() {
         let krate = entry.unwrap().path();
