@@ -63,6 +63,10 @@ pub struct DefenderSettings {
     /// DTW on z-scored features (`[defender.cost] scaling = "zscore"`) rather than SPEC section
     /// 2's plain DTW: rows of their own, labelled `z-score`.
     pub zscore: bool,
+    /// The DTW filter decides the end (`[defender.filter] trigger`, `dtw` by default). Another
+    /// trigger (docs/SPEC.md section 15) reads no DTW strategy, though its configuration names
+    /// one: its table cells say `-` and its plot label `no DTW`, not a strategy it never used.
+    pub dtw: bool,
 }
 
 impl DefenderSettings {
@@ -80,21 +84,33 @@ impl DefenderSettings {
     /// The strategy as a table or plot names it: `SAFE/UNSAFE`, or `auto: SAFE/UNSAFE` (see
     /// [`DefenderSettings::prefix`]).
     pub fn name(&self) -> String {
+        if !self.dtw {
+            return "no DTW".to_string();
+        }
         format!("{}{}", self.prefix(), self.strategy)
     }
 
     /// The safe group's column of a table: [`DefenderSettings::safe`], with the same prefix.
     pub fn safe_cell(&self) -> String {
+        if !self.dtw {
+            return "-".to_string();
+        }
         format!("{}{}", self.prefix(), self.safe())
     }
 
-    /// The strategy of the safe group (before the `/`).
+    /// The strategy of the safe group (before the `/`); `-` for another trigger than DTW.
     pub fn safe(&self) -> &str {
+        if !self.dtw {
+            return "-";
+        }
         self.strategy.split_once('/').map_or(self.strategy.as_str(), |(s, _)| s)
     }
 
-    /// The strategy of the unsafe group (after the `/`).
+    /// The strategy of the unsafe group (after the `/`); `-` for another trigger than DTW.
     pub fn unsafe_(&self) -> &str {
+        if !self.dtw {
+            return "-";
+        }
         self.strategy.split_once('/').map_or(self.strategy.as_str(), |(_, u)| u)
     }
 }
@@ -581,6 +597,7 @@ fn parse_config(path: &Path, text: &str) -> Result<RunSettings> {
                 num_demos: d.num_demos,
                 auto: d.selection.is_some(),
                 zscore: d.cost.scaling.as_deref() == Some("zscore"),
+                dtw: d.filter.trigger.is_dtw(),
             })
         }
     };

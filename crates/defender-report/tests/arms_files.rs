@@ -54,8 +54,16 @@ fn baselines_arms_name_complete_runs_of_their_task() {
 
 #[test]
 fn velocity_arms_name_complete_runs_of_their_task() {
-    let arms =
-        ["bare", "lagrangian-v1", "defender", "omnisafe-saclag", "lagrangian", "pid", "defender-limit"];
+    let arms = [
+        "bare",
+        "lagrangian-v1",
+        "defender",
+        "omnisafe-saclag",
+        "omnisafe-saclag-300k",
+        "lagrangian",
+        "pid",
+        "defender-limit",
+    ];
     check("results/velocity/arms.txt", &arms);
 }
 

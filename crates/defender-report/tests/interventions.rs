@@ -213,3 +213,32 @@ fn a_malformed_interventions_file_is_an_error_naming_the_file_and_line() {
     let err = load_runs(&[root.path()]).unwrap_err().to_string();
     assert!(err.contains(&path.display().to_string()) && err.contains("missing column"), "{err}");
 }
+
+/// A trigger other than DTW reads no strategy, though its configuration names one: its row's Safe
+/// and Unsafe cells say `-` (Markdown and CSV's safe and unsafe) while the DTW row of the same
+/// strategy names it.
+#[test]
+fn another_trigger_names_no_dtw_strategy() {
+    let root = tempfile::tempdir().unwrap();
+    let dtw = RunSpec::new("sac", 0, A).outcomes(12, 1, 3).write(&root.path().join("dtw"));
+    let margin = RunSpec::new("sac", 0, A).outcomes(12, 1, 3).write(&root.path().join("margin"));
+    let config = margin.join("config.toml");
+    let text = std::fs::read_to_string(&config).unwrap();
+    std::fs::write(&config, format!("{text}\n[defender.filter]\ntrigger = \"margin\"\ntask_margin = 0.4\n")).unwrap();
+
+    let table = Table::from_runs(&load_runs(&[&dtw, &margin]).unwrap().runs);
+    let md = render(&table, Format::Markdown);
+    assert_eq!(md_cell(&md, "margin-trigger0.4", "Safe"), "-", "{md}");
+    assert_eq!(md_cell(&md, "margin-trigger0.4", "Unsafe"), "-", "{md}");
+    let dtw_line = md.lines().find(|l| l.contains("MeanDemoW5") && !l.contains("trigger")).unwrap();
+    assert!(dtw_line.contains("MeanDemoW10"), "{md}");
+    let csv = render(&table, Format::Csv);
+    // The CSV keeps the configured `strategy` (what config.toml says) beside `-` in safe, unsafe.
+    let cells = |line: &str| line.split(',').map(String::from).collect::<Vec<_>>();
+    let header = cells(csv.lines().next().unwrap());
+    let margin_csv = cells(csv.lines().find(|l| l.contains("margin-trigger0.4")).unwrap());
+    for column in ["safe", "unsafe"] {
+        let k = header.iter().position(|h| h == column).unwrap();
+        assert_eq!(margin_csv[k], "-", "{column}: {csv}");
+    }
+}
