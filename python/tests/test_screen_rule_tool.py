@@ -69,6 +69,33 @@ def test_the_baselines_rule_counts_crashes_after_the_warm_up_and_reads_the_last_
     assert "- pid: **sac-bare-pid-y** (none reaches the bar: the highest return" in out, out
 
 
+def test_the_interventions_columns_count_after_the_warm_up_and_pool_the_seeds_checks(tmp_path):
+    steps = 100_000
+    evals = [(60_000, 1000.0, 0), (100_000, 1000.0, 0)]
+    for seed in (0, 1):
+        make_run(tmp_path / "bare" / "Hopper-v5" / f"sac-bare-s{seed}", steps, [(8000, 10, "crashed", 1)], evals)
+    header = ("total_steps,episode,intervention,episode_steps,episode_cost,checked,would_fail,"
+              "steps_to_failure,continuation_steps,continuation_return,continuation_cost")
+    # (total_steps, checked, would_fail, steps_to_failure): the first in the warm-up, not counted.
+    rows = {
+        0: [(3000, 1, 1, 9), (7000, 1, 1, 2), (8000, 1, 0, None), (9000, 0, None, None)],
+        1: [(7000, 1, 1, 4), (9000, 1, 1, 6)],
+    }
+    for seed, interventions in rows.items():
+        run = tmp_path / "screen" / "Hopper-v5" / f"sac-MeanDemoW5-MeanDemoW10-margin04-s{seed}"
+        make_run(run, steps, [(6000, 5, "filtered", 0)], evals)
+        lines = [header] + [
+            f"{t},{i},{i},5,0,{c},{'' if f is None else f},{'' if n is None else n},5,1.0,0"
+            for i, (t, c, f, n) in enumerate(interventions)
+        ]
+        (run / "interventions.csv").write_text("\n".join(lines) + "\n")
+    out = run_tool("baselines", str(tmp_path / "screen"), "--bare", str(tmp_path / "bare"))
+    # After the warm-up: 3 and 2 interventions (mean 2.5); checked 2 + 2, of which 3 would have
+    # failed (precision 0.75), after 2, 4 and 6 steps (median 4).
+    assert "| sac-MeanDemoW5-MeanDemoW10-margin04 | 2 | 0.0 | 1000 | yes | 2.5 | 0.75 | 4 |" in out, out
+    assert "- margin: **sac-MeanDemoW5-MeanDemoW10-margin04**" in out, out
+
+
 def test_the_velocity_rule_weighs_the_limit_and_half_the_best_lagrangians_cost_rate(tmp_path):
     steps = 100_000
     root = tmp_path / "vel" / "SafetyHopperVelocity-v1"

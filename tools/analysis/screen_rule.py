@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import csv
 import re
+import statistics
 import sys
 import tomllib
 from pathlib import Path
@@ -83,15 +84,15 @@ def settings(*roots: Path) -> dict[str, dict[str, list[Path]]]:
     return out
 
 
-def interventions(run: Path, steps: int) -> tuple[int, int, int] | None:
-    """(interventions after the warm-up, of them checked, of those that would have failed), from
-    interventions.csv (docs/run-directory.md); None for a run without one."""
+def interventions(run: Path, steps: int) -> tuple[int, int, list[int]] | None:
+    """(interventions after the warm-up, of them checked, the steps to failure of those that would
+    have failed), from interventions.csv (docs/run-directory.md); None for a run without one."""
     path = run / "interventions.csv"
     if not path.exists():
         return None
     late = [r for r in rows(path) if WARMUP < int(r["total_steps"]) <= steps]
     checked = [r for r in late if r["checked"] == "1"]
-    return len(late), len(checked), sum(r["would_fail"] == "1" for r in checked)
+    return len(late), len(checked), [int(r["steps_to_failure"]) for r in checked if r["would_fail"] == "1"]
 
 
 def mean(xs: list[float]) -> float:
@@ -109,9 +110,9 @@ def baselines(args: argparse.Namespace) -> None:
         print(f"\n### {task}: {steps} steps, seeds {seeds}; bare SAC {bare:.0f} (bar {bar:.0f}), "
               f"{bare_crashes:.0f} crashes after the warm-up\n")
         counted = any((r / "interventions.csv").exists() for runs in by_setting.values() for r in runs)
-        extra = " interventions after warm-up | precision |" if counted else ""
+        extra = " interventions after warm-up | precision | lead (median steps) |" if counted else ""
         print(f"| setting | runs | crashes after warm-up | return (last 40%) | reaches the bar |{extra}")
-        print("| --- | ---: | ---: | ---: | --- |" + (" ---: | ---: |" if counted else ""))
+        print("| --- | ---: | ---: | ---: | --- |" + (" ---: | ---: | ---: |" if counted else ""))
         table = []
         for name, runs in sorted(by_setting.items()):
             done = [r for r in runs if complete(r, steps)]
@@ -125,9 +126,10 @@ def baselines(args: argparse.Namespace) -> None:
             if counted:
                 found = [c for c in (interventions(r, steps) for r in done) if c is not None]
                 n = mean([c[0] for c in found]) if found else 0.0
-                checked, failed = sum(c[1] for c in found), sum(c[2] for c in found)
-                precision = f"{failed / checked:.2f}" if checked else "-"
-                cells = f" {n:.1f} | {precision} |"
+                checked, leads = sum(c[1] for c in found), sorted(x for c in found for x in c[2])
+                precision = f"{len(leads) / checked:.2f}" if checked else "-"
+                lead = f"{statistics.median(leads):g}" if leads else "-"
+                cells = f" {n:.1f} | {precision} | {lead} |"
             print(f"| {name} | {len(done)} | {crashes:.1f} | {ret:.0f} | {'yes' if ret >= bar else 'no'} |{cells}")
         families: dict[str, list[tuple[str, float, float]]] = {}
         for entry in table:
