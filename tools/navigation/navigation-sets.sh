@@ -39,6 +39,15 @@ MANIFEST=$OUT/episode-sets.sha256
 SETS=(ppolag-s0/episodes.npz ppolag-s1/episodes.npz demos.npz)
 RUN=(env OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 MKL_CBWR=COMPATIBLE,STRICT ATEN_CPU_CAPABILITY=default nice -n 10)
 
+# The episode sets are saved by defender_rl (navigation_episodes.py) once training ends: check
+# for it now, not after 20 minutes of training.
+if ! "$PY" -c "import defender_rl, omnisafe" 2>/dev/null; then
+  echo "navigation-sets: $PY cannot import defender_rl and omnisafe; make the venv and install the" >&2
+  echo "  wheel into it: bash tools/peers/omnisafe-venv.sh && make wheel && $PY -m pip install" >&2
+  echo "  --no-deps --force-reinstall dist/defender_rl-*.whl (as scripts/test-omnisafe.sh does)" >&2
+  exit 2
+fi
+
 if [ -f "$MANIFEST" ]; then
   DIR=${2:-$(mktemp -d "${TMPDIR:-/tmp}/navigation-sets.XXXXXX")}
 else
