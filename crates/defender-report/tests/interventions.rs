@@ -224,7 +224,8 @@ fn another_trigger_names_no_dtw_strategy() {
     let margin = RunSpec::new("sac", 0, A).outcomes(12, 1, 3).write(&root.path().join("margin"));
     let config = margin.join("config.toml");
     let text = std::fs::read_to_string(&config).unwrap();
-    std::fs::write(&config, format!("{text}\n[defender.filter]\ntrigger = \"margin\"\ntask_margin = 0.4\n")).unwrap();
+    std::fs::write(&config, format!("{text}\n[defender.filter]\ntrigger = \"margin\"\ntask_margin = 0.4\n"))
+        .unwrap();
 
     let table = Table::from_runs(&load_runs(&[&dtw, &margin]).unwrap().runs);
     let md = render(&table, Format::Markdown);
