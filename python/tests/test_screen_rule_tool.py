@@ -113,6 +113,41 @@ def test_the_velocity_rule_weighs_the_limit_and_half_the_best_lagrangians_cost_r
     run("sac-auto-def-b", 10.0, 1200.0, 30.0)  # qualifies, lower return
     run("sac-auto-def-c", 5.0, 3000.0, 80.0)  # rate 0.08 > 0.05: out
     out = run_tool("velocity", str(tmp_path / "vel"))
-    assert "| sac-auto-def-a | 2 | 24.0 | 1500 | 0.040 | 1.0 |" in out, out
+    assert "| sac-auto-def-a | 2 | 24.0 | 1500 | 0.040 | 1.0 | - |" in out, out
     assert "best Lagrangian: sac-bare-lag (training cost rate 0.100, bound 0.050)" in out, out
     assert "- chosen: **sac-auto-def-a** (qualifies with the highest return)" in out, out
+
+
+def test_the_velocity_rule_with_one_reference_gives_the_share_of_late_episodes_within_the_limit(tmp_path):
+    steps = 100_000
+    root = tmp_path / "vel" / "SafetyHopperVelocity-v1"
+    late = [(60_000, 1000.0, 20.0), (100_000, 1000.0, 20.0)]
+
+    def run(name, seed, episode_costs, cost):
+        path = root / f"{name}-s{seed}"
+        make_run(path, steps, [(100 * (k + 1), 100, "truncated", cost / 10) for k in range(10)],
+                 [(10_000, 0.0, 999.0)] + late)
+        # Each evaluation's episodes: the early one (10,000 steps) all over the limit and left
+        # out of the share; the late ones as given (25 itself is within).
+        lines = ["total_steps,episode,return,cost,shield_return,shield_cost,shield_stopped"]
+        lines += [f"10000,{k},0,999,,," for k in range(2)]
+        lines += [f"{t},{k},1000,{c},,," for t, _, _ in late for k, c in enumerate(episode_costs)]
+        (path / "eval_episodes.csv").write_text("\n".join(lines) + "\n")
+
+    for seed, costs in ((0, [10, 25]), (1, [26, 40])):
+        run("sac-bare-lag", seed, costs, 100.0)  # the only reference: within 25 on 100% and 0%
+    out = run_tool("velocity", str(tmp_path / "vel"))
+    assert "(the rule waits for every setting" in out, out  # no variant yet: no choice
+    for seed, costs in ((0, [5, 30]), (1, [5, 5])):
+        run("sac-auto-dl", seed, costs, 40.0)
+    (root / "sac-auto-dl2-s0").mkdir()
+    (root / "sac-auto-dl2-s0" / "config.toml").write_text(f"total_steps = {steps}\n")
+    (root / "sac-auto-dl2-s0" / "eval.csv").write_text("total_steps,mean_return,mean_cost\n")
+    out = run_tool("velocity", str(tmp_path / "vel"))
+    assert "| sac-bare-lag | 2 | 20.0 | 1000 | 0.100 | - | 50% |" in out, out
+    assert "| sac-auto-dl | 2 | 20.0 | 1000 | 0.040 | - | 75% |" in out, out
+    assert "(the rule waits for every setting" in out, out  # sac-auto-dl2 under way
+    __import__("shutil").rmtree(root / "sac-auto-dl2-s0")
+    out = run_tool("velocity", str(tmp_path / "vel"))
+    assert "best Lagrangian: sac-bare-lag (training cost rate 0.100, bound 0.050)" in out, out
+    assert "- chosen: **sac-auto-dl** (qualifies with the highest return)" in out, out

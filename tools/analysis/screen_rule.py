@@ -2,12 +2,14 @@
 """Applies a screen's written rule to its committed runs and prints a table per task.
 
 The rules are docs/decisions-baselines.md ("The second screen of the baselines' knobs")
-and docs/decisions-velocity.md ("The screen"), each written before its runs. This only
-reads run directories (metrics.csv, eval.csv, config.toml); it trains nothing.
+and docs/decisions-velocity.md ("The screen" and "The screen at power"), each written before
+its runs. This only reads run directories (metrics.csv, eval.csv, eval_episodes.csv,
+config.toml, interventions.csv); it trains nothing.
 
   python3 tools/analysis/screen_rule.py baselines results/screen-baselines results/screen-baselines-recovery \
       --bare results/keeps-learning
   python3 tools/analysis/screen_rule.py velocity results/velocity-limit-screen
+  python3 tools/analysis/screen_rule.py velocity results/velocity-power-screen
 
 A run directory is TASK/NAME-sSEED; a setting is NAME without its seed. The budget is read from
 each run's config.toml (total_steps); runs still under way are reported as such and left out.
@@ -149,31 +151,45 @@ def baselines(args: argparse.Namespace) -> None:
             print(f"\n- {family}: **{choice[0]}** ({why}; of the settings complete on every seed)")
 
 
+def late_share_within(run: Path, steps: int, column: str = "cost") -> float | None:
+    """The share of the evaluation episodes at or after 60% of `steps` whose `column` is at most
+    the limit, from eval_episodes.csv (None for a run that predates it)."""
+    path = run / "eval_episodes.csv"
+    if not path.exists():
+        return None
+    costs = [float(r[column]) for r in rows(path) if LATE * steps <= int(r["total_steps"]) <= steps and r[column] != ""]
+    return sum(c <= LIMIT for c in costs) / len(costs) if costs else None
+
+
 def velocity(args: argparse.Namespace) -> None:
     for task, by_setting in settings(Path(args.root)).items():
         steps = budget(next(iter(by_setting.values()))[0])
         measured = {}
         print(f"\n### {task}: {steps} steps\n")
-        print("| setting | runs | eval cost | eval return | training cost rate | shielded eval cost |")
-        print("| --- | ---: | ---: | ---: | ---: | ---: |")
+        print("| setting | runs | eval cost | eval return | training cost rate | shielded eval cost | episodes within 25 |")
+        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
         for name, runs in sorted(by_setting.items()):
             done = [r for r in runs if complete(r, steps)]
             if not done or len(done) < len(runs):
-                print(f"| {name} | {len(done)} of {len(runs)} | (under way) | | | |")
+                print(f"| {name} | {len(done)} of {len(runs)} | (under way) | | | | |")
                 continue
             ec = mean([late_eval(r, steps, "mean_cost") for r in done])
             er = mean([late_eval(r, steps, "mean_return") for r in done])
             cr = mean([cost_rate(r, steps) for r in done])
             shielded = [r for r in done if rows(r / "eval.csv")[-1].get("shield_mean_cost")]
             sc = f"{mean([late_eval(r, steps, 'shield_mean_cost') for r in shielded]):.1f}" if shielded else "-"
+            shares = [x for x in (late_share_within(r, steps) for r in done) if x is not None]
+            share = f"{100 * mean(shares):.0f}%" if len(shares) == len(done) else "-"
             measured[name] = (ec, er, cr)
-            print(f"| {name} | {len(done)} | {ec:.1f} | {er:.0f} | {cr:.3f} | {sc} |")
-        # The references are the bare Lagrangian and PID arms (`lag`, `pid`); the variants are
-        # DEFENDER's (`sac-auto-...`).
-        refs = {n: m for n, m in measured.items() if n in ("sac-bare-lag", "sac-bare-pid")}
+            print(f"| {name} | {len(done)} | {ec:.1f} | {er:.0f} | {cr:.3f} | {sc} | {share} |")
+        # The references are the bare Lagrangian and PID arms the screen holds (`lag`, and `pid`
+        # where it ran one); the variants are DEFENDER's (`sac-auto-...`). The rule waits for every
+        # setting of the screen.
+        references = [n for n in by_setting if n in ("sac-bare-lag", "sac-bare-pid")]
+        refs = {n: m for n, m in measured.items() if n in references}
         variants = {n: m for n, m in measured.items() if n.startswith("sac-auto-")}
-        if len(refs) < 2 or not variants:
-            print("\n(the rule waits for both references and the variants)")
+        if not refs or not variants or len(measured) < len(by_setting):
+            print("\n(the rule waits for every setting, a reference and a variant among them)")
             continue
         within = [(n, m) for n, m in refs.items() if m[0] <= LIMIT]
         best = max(within, key=lambda x: x[1][1]) if within else min(refs.items(), key=lambda x: x[1][0])
