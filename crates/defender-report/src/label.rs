@@ -69,9 +69,12 @@ pub(crate) fn algo_label(raw: &RawConfig) -> String {
         if d.filter != expected {
             tags.push(d.filter.label());
         }
-        // A filtered step that charges the learner the violation (docs/SPEC.md section 14).
-        if d.filtered_cost.as_deref() == Some("violation") {
-            tags.push("filtered charged".into());
+        // A filtered step that charges the learner the violation, or the checked continuation's
+        // cost (docs/SPEC.md section 14).
+        match d.filtered_cost.as_deref() {
+            Some("violation") => tags.push("filtered charged".into()),
+            Some("continuation") => tags.push("filtered charged its continuation".into()),
+            _ => {}
         }
     }
     if let Some(safety) = &raw.safety {
@@ -99,9 +102,21 @@ fn safety_tag(safety: &toml::Table) -> String {
             format!("lagrangian d={}{lr}{}", show("cost_limit"), cost_options(safety))
         }
         "pid" => {
-            format!("pid d={} ki={}{}", show("cost_limit"), num("ki").unwrap_or(1e-7), cost_options(safety))
+            // The screens tie kp to 10 ki and kd to ki; gains set otherwise are named.
+            let ki = num("ki").unwrap_or(1e-7);
+            let (kp, kd) = (num("kp").unwrap_or(1e-6), num("kd").unwrap_or(1e-7));
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-30);
+            let gains =
+                if close(kp, 10.0 * ki) && close(kd, ki) { String::new() } else { format!(" kp={kp} kd={kd}") };
+            format!("pid d={} ki={ki}{gains}{}", show("cost_limit"), cost_options(safety))
         }
-        "recovery" => format!("recovery eps={} g={}", show("eps_risk"), show("gamma_risk")),
+        "recovery" => {
+            // Pretraining other than the authors' 10,000 steps is named.
+            let pretrain = num("pretrain_steps")
+                .filter(|&n| n != 10_000.0)
+                .map_or(String::new(), |n| format!(" pretrain={n}"));
+            format!("recovery eps={} g={}{pretrain}", show("eps_risk"), show("gamma_risk"))
+        }
         other => other.to_string(),
     }
 }
@@ -144,10 +159,27 @@ mod tests {
             "sac (lagrangian d=0.2 lr=0.1 norm clip=40)"
         );
         assert_eq!(
-            label("[safety]\nmethod = \"pid\"\ncost_limit = 25.0\nki = 0.001\n"),
+            label("[safety]\nmethod = \"pid\"\ncost_limit = 25.0\nkp = 0.01\nki = 0.001\nkd = 0.001\n"),
             "sac (pid d=25 ki=0.001)"
         );
         let charged = "[defender]\nstrategy = \"MinBothW5/MinBothW10\"\nmode = \"state\"\nfiltered_cost = \"violation\"\n";
         assert_eq!(label(charged), "sac (filtered charged)");
+        let continuation = charged.replace("\"violation\"", "\"continuation\"");
+        assert_eq!(label(&continuation), "sac (filtered charged its continuation)");
+    }
+
+    #[test]
+    fn pid_gains_off_the_screens_ratio_and_recovery_pretraining_off_the_default_are_named() {
+        let pid = |gains: &str| label(&format!("[safety]\nmethod = \"pid\"\ncost_limit = 0.2\n{gains}"));
+        assert_eq!(pid("kp = 1e-3\nki = 1e-4\nkd = 1e-4\n"), "sac (pid d=0.2 ki=0.0001)");
+        assert_eq!(pid("kp = 0.1\nki = 1e-2\nkd = 1e-2\n"), "sac (pid d=0.2 ki=0.01)");
+        assert_eq!(pid("kp = 200.0\nki = 1e-2\nkd = 200.0\n"), "sac (pid d=0.2 ki=0.01 kp=200 kd=200)");
+        assert_eq!(pid(""), "sac (pid d=0.2 ki=0.0000001)"); // the defaults, tied
+        let rec = |extra: &str| {
+            label(&format!("[safety]\nmethod = \"recovery\"\neps_risk = 0.5\ngamma_risk = 0.8\n{extra}"))
+        };
+        assert_eq!(rec(""), "sac (recovery eps=0.5 g=0.8)");
+        assert_eq!(rec("pretrain_steps = 10000\n"), "sac (recovery eps=0.5 g=0.8)");
+        assert_eq!(rec("pretrain_steps = 50000\n"), "sac (recovery eps=0.5 g=0.8 pretrain=50000)");
     }
 }
