@@ -106,8 +106,11 @@ fn safety_tag(safety: &toml::Table) -> String {
             let ki = num("ki").unwrap_or(1e-7);
             let (kp, kd) = (num("kp").unwrap_or(1e-6), num("kd").unwrap_or(1e-7));
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-30);
-            let gains =
-                if close(kp, 10.0 * ki) && close(kd, ki) { String::new() } else { format!(" kp={kp} kd={kd}") };
+            let gains = if close(kp, 10.0 * ki) && close(kd, ki) {
+                String::new()
+            } else {
+                format!(" kp={kp} kd={kd}")
+            };
             format!("pid d={} ki={ki}{gains}{}", show("cost_limit"), cost_options(safety))
         }
         "recovery" => {
