@@ -48,7 +48,7 @@ fn baselines_arms_name_complete_runs_of_their_task() {
         "pid",
     ];
     let more = ["recovery", "penalty-demos", "recovery-demos", "lagrangian-demos", "pid-demos"];
-    let history = ["lagrangian-demos-v1", "pid-demos-v1"];
+    let history = ["lagrangian-demos-v1", "pid-demos-v1", "pid-v2", "recovery-v2", "recovery-demos-v2"];
     check("results/baselines/arms.txt", &[&arms[..], &more[..], &history[..]].concat());
 }
 
