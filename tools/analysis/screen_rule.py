@@ -151,13 +151,13 @@ def baselines(args: argparse.Namespace) -> None:
             print(f"\n- {family}: **{choice[0]}** ({why}; of the settings complete on every seed)")
 
 
-def late_share_within(run: Path, steps: int, column: str = "cost") -> float | None:
-    """The share of the evaluation episodes at or after 60% of `steps` whose `column` is at most
-    the limit, from eval_episodes.csv (None for a run that predates it)."""
+def late_share_within(run: Path, steps: int) -> float | None:
+    """The share of the evaluation episodes at or after 60% of `steps` whose cost is at most the
+    limit, from eval_episodes.csv (None for a run that predates it)."""
     path = run / "eval_episodes.csv"
     if not path.exists():
         return None
-    costs = [float(r[column]) for r in rows(path) if LATE * steps <= int(r["total_steps"]) <= steps and r[column] != ""]
+    costs = [float(r["cost"]) for r in rows(path) if LATE * steps <= int(r["total_steps"]) <= steps]
     return sum(c <= LIMIT for c in costs) / len(costs) if costs else None
 
 
@@ -185,8 +185,7 @@ def velocity(args: argparse.Namespace) -> None:
         # The references are the bare Lagrangian and PID arms the screen holds (`lag`, and `pid`
         # where it ran one); the variants are DEFENDER's (`sac-auto-...`). The rule waits for every
         # setting of the screen.
-        references = [n for n in by_setting if n in ("sac-bare-lag", "sac-bare-pid")]
-        refs = {n: m for n, m in measured.items() if n in references}
+        refs = {n: m for n, m in measured.items() if n in ("sac-bare-lag", "sac-bare-pid")}
         variants = {n: m for n, m in measured.items() if n.startswith("sac-auto-")}
         if not refs or not variants or len(measured) < len(by_setting):
             print("\n(the rule waits for every setting, a reference and a variant among them)")

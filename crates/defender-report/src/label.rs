@@ -103,8 +103,9 @@ fn safety_tag(safety: &toml::Table) -> String {
         }
         "pid" => {
             // The screens tie kp to 10 ki and kd to ki; gains set otherwise are named.
-            let ki = num("ki").unwrap_or(1e-7);
-            let (kp, kd) = (num("kp").unwrap_or(1e-6), num("kd").unwrap_or(1e-7));
+            let default = defender_rl::safety::PidConfig::default();
+            let ki = num("ki").unwrap_or(default.ki);
+            let (kp, kd) = (num("kp").unwrap_or(default.kp), num("kd").unwrap_or(default.kd));
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-30);
             let gains = if close(kp, 10.0 * ki) && close(kd, ki) {
                 String::new()
@@ -114,9 +115,10 @@ fn safety_tag(safety: &toml::Table) -> String {
             format!("pid d={} ki={ki}{gains}{}", show("cost_limit"), cost_options(safety))
         }
         "recovery" => {
-            // Pretraining other than the authors' 10,000 steps is named.
+            // Pretraining other than the authors' length (10,000 steps) is named.
+            let authors = defender_rl::safety::RecoveryConfig::default().pretrain_steps as f64;
             let pretrain = num("pretrain_steps")
-                .filter(|&n| n != 10_000.0)
+                .filter(|&n| n != authors)
                 .map_or(String::new(), |n| format!(" pretrain={n}"));
             format!("recovery eps={} g={}{pretrain}", show("eps_risk"), show("gamma_risk"))
         }
