@@ -1,6 +1,7 @@
 """tools/analysis/velocity_aim.py: the velocity aim, decided per task from an arms.txt file, by the screen's
 rule for the best Lagrangian; its three conditions checked on made-up arms either side of each
-bound, and end to end on committed velocity runs (known figures)."""
+bound, the aim by the share of episodes within the limit likewise, and end to end on committed velocity
+runs (known figures)."""
 
 from __future__ import annotations
 
@@ -88,3 +89,48 @@ def test_a_file_without_the_candidate_is_refused(binary, tmp_path):
     done = subprocess.run([sys.executable, str(TOOL), str(arms), "--defender", str(binary)],
                           capture_output=True, text=True)
     assert done.returncode != 0 and "no arm named 'defender-limit'" in done.stderr, done.stderr
+
+
+def shared(within, ret=1001, cost=30.0, rate=0.05):
+    return aim.Arm("x", 5, ret, cost, rate, (cost - 5, cost + 5), within, (within - 0.1, within + 0.1))
+
+
+@pytest.mark.parametrize(
+    "candidate, met",
+    [
+        (shared(0.6), True),  # the mean over the limit, but more episodes within than the Lagrangian's
+        (shared(0.59), False),  # fewer episodes within than the Lagrangian's
+        (shared(0.6, ret=1000), False),  # the return condition stands
+        (shared(0.6, rate=0.0501), False),  # the cost-rate condition stands
+    ],
+)
+def test_the_aim_by_the_share_reads_the_limit_per_episode(candidate, met):
+    best = aim.Arm("lag", 5, 1000, 20.0, 0.1, (15, 25), 0.6, (0.5, 0.7))
+    assert aim.share_verdict(candidate, best)[0] is met
+
+
+def test_the_aim_by_the_share_needs_half_the_episodes_within_even_against_a_worse_lagrangian():
+    best = aim.Arm("lag", 5, 1000, 50.0, 0.1, (45, 55), 0.3, (0.2, 0.4))
+    assert aim.share_verdict(shared(0.49), best)[0] is False
+    assert aim.share_verdict(shared(0.5), best)[0] is True
+
+
+def test_an_interval_that_holds_the_limit_is_said():
+    assert aim.straddles(shared(0.6, cost=22.0), 25.0)  # [17, 27]
+    assert not aim.straddles(shared(0.6, cost=19.0), 25.0)  # [14, 24]
+
+
+def test_runs_with_every_evaluation_episode_give_the_share_and_its_verdict(binary, tmp_path):
+    screen = "results/velocity-power-screen/SafetyHopperVelocity-v1"
+    arms = tmp_path / "arms.txt"
+    arms.write_text(f"SafetyHopperVelocity-v1 dl-cont-d20 {screen}/sac-auto-dl-cont-d20-s0 {screen}/sac-auto-dl-cont-d20-s1\n"
+                    f"SafetyHopperVelocity-v1 lag {screen}/sac-bare-lag-s0 {screen}/sac-bare-lag-s1\n")
+    done = subprocess.run([sys.executable, str(TOOL), str(arms), "--candidate", "dl-cont-d20", "--lagrangians", "lag",
+                           "--defender", str(binary)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    # The power screen's runs at 100k, read as the finals are (last 10 evaluations of 20 episodes).
+    assert "evaluation cost 44.9 [32.0, 57.9], episodes within the limit 44% [31%, 57%]" in out, out
+    assert "**aim not met**, on 2 seeds" in out, out
+    assert ("by the share of episodes within the limit: **not met** (episodes within the limit 44% < lag's 46%, "
+            "< one half)") in out, out

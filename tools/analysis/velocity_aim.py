@@ -16,6 +16,13 @@ Every figure is the mean over the arm's seeds of `defender report`'s per-run val
 numbers as tools/analysis/arms_table.py); the verdict says how many seeds it rests on, "not yet" while
 an arm it needs has no runs, and "provisional" while a Lagrangian arm still to run could change
 it (a candidate over the limit misses the aim whatever they give).
+
+The aim is also judged by the share of evaluation episodes within the limit (docs/decisions-velocity.md,
+"The aim by the share of episodes within the limit"): the first condition read per episode, the
+candidate's share of last-10 evaluation episodes whose cost is at most the limit at least the best
+Lagrangian's and at least one half; the other two conditions as they are. Each figure carries the
+report's 95% bootstrap interval over seeds, and the verdict says where the interval of the
+candidate's evaluation cost holds the limit (its seeds do not settle which side it is on).
 """
 
 from __future__ import annotations
@@ -38,6 +45,9 @@ class Arm:
     eval_return: float  # mean of the last 10 evaluations' return, without the filter
     eval_cost: float  # the same evaluations' mean episode cost
     cost_rate: float  # training cost / training environment steps
+    eval_cost_ci: tuple[float, float] = (float("nan"), float("nan"))  # 95% bootstrap over seeds
+    within: float = float("nan")  # share of the last-10 evaluation episodes with cost <= the limit
+    within_ci: tuple[float, float] = (float("nan"), float("nan"))
 
 
 def best_lagrangian(arms: list[Arm], limit: float) -> Arm:
@@ -63,6 +73,23 @@ def verdict(candidate: Arm, best: Arm, limit: float) -> tuple[bool, list[str]]:
     return keeps and higher and cheap, lines
 
 
+def share_verdict(candidate: Arm, best: Arm) -> tuple[bool, str]:
+    """The aim by the share of episodes within the limit: the first condition read per episode
+    (at least the best Lagrangian's share and at least one half), the other two as `verdict`'s."""
+    enough = candidate.within >= best.within and candidate.within >= 0.5
+    line = (f"episodes within the limit {candidate.within:.0%} {'>=' if candidate.within >= best.within else '<'} "
+            f"{best.name}'s {best.within:.0%}, {'>=' if candidate.within >= 0.5 else '<'} one half")
+    higher = candidate.eval_return > best.eval_return
+    cheap = candidate.cost_rate <= 0.5 * best.cost_rate
+    return enough and higher and cheap, line
+
+
+def straddles(candidate: Arm, limit: float) -> bool:
+    """Whether the interval of the candidate's evaluation cost holds the limit."""
+    lo, hi = candidate.eval_cost_ci
+    return lo <= limit <= hi
+
+
 def pending(candidate: Arm, missing: list[str], limit: float, seeds: int) -> str:
     """What the runs still to come leave open, as a suffix of the verdict; `seeds` is the most
     seeds any arm of the task has."""
@@ -78,12 +105,29 @@ def pending(candidate: Arm, missing: list[str], limit: float, seeds: int) -> str
     return f" (provisional: {', '.join(missing)} not yet run)"
 
 
+def figure(row: dict[str, str], name: str) -> float:
+    """A report figure, NaN where the report leaves it empty (runs made before it was recorded)."""
+    value = row.get(name, "")
+    return float(value) if value != "" else float("nan")
+
+
 def arm_of(name: str, row: dict[str, str], where: str) -> Arm:
     try:
         return Arm(name, int(row["n_seeds"]), float(row["last10_eval_mean"]), float(row["eval_cost_last10_mean"]),
-                   float(row["cost_rate_mean"]))
+                   float(row["cost_rate_mean"]),
+                   (figure(row, "eval_cost_last10_ci_lo"), figure(row, "eval_cost_last10_ci_hi")),
+                   figure(row, "eval_within_limit_last10_mean"),
+                   (figure(row, "eval_within_limit_last10_ci_lo"), figure(row, "eval_within_limit_last10_ci_hi")))
     except (KeyError, ValueError) as e:
         raise SystemExit(f"{where}: the report gives no cost figures ({e}): is this a task with an episode cost limit?")
+
+
+def describe(arm: Arm) -> str:
+    lo, hi = arm.eval_cost_ci
+    w_lo, w_hi = arm.within_ci
+    within = "" if arm.within != arm.within else f", episodes within the limit {arm.within:.0%} [{w_lo:.0%}, {w_hi:.0%}]"
+    return (f"- {arm.name} ({arm.seeds} seed{'s' if arm.seeds != 1 else ''}): last-10 return {arm.eval_return:.0f}, "
+            f"evaluation cost {arm.eval_cost:.1f} [{lo:.1f}, {hi:.1f}]{within}, training cost rate {arm.cost_rate:.3f}")
 
 
 def main() -> int:
@@ -116,8 +160,7 @@ def main() -> int:
             arms[name] = arm_of(name, row, where)
         missing += [n for n in wanted if n not in arms and n not in missing]
         for arm in arms.values():
-            print(f"- {arm.name} ({arm.seeds} seed{'s' if arm.seeds != 1 else ''}): last-10 return {arm.eval_return:.0f}, "
-                  f"evaluation cost {arm.eval_cost:.1f}, training cost rate {arm.cost_rate:.3f}")
+            print(describe(arm))
         if args.candidate in missing or not [n for n in args.lagrangians if n in arms]:
             print(f"- **not yet**: no runs of {', '.join(missing)}\n")
             continue
@@ -130,7 +173,17 @@ def main() -> int:
         for line in lines:
             print(f"  - {line}")
         provisional = pending(arms[args.candidate], missing, limit, max(seeds))
-        print(f"- **aim {'met' if met else 'not met'}**, on {'/'.join(map(str, seeds))} seeds{provisional}\n")
+        print(f"- **aim {'met' if met else 'not met'}**, on {'/'.join(map(str, seeds))} seeds{provisional}")
+        candidate = arms[args.candidate]
+        if straddles(candidate, limit):
+            print(f"  - the interval of {candidate.name}'s evaluation cost holds the limit: its seeds do not settle "
+                  "which side it is on")
+        if candidate.within == candidate.within and best.within == best.within:
+            by_share, line = share_verdict(candidate, best)
+            print(f"- by the share of episodes within the limit: **{'met' if by_share else 'not met'}** ({line})")
+        else:
+            print("- by the share of episodes within the limit: - (runs without eval_episodes.csv)")
+        print()
     return 0
 
 

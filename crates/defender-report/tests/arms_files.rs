@@ -1,8 +1,8 @@
-//! The committed `results/*/arms.txt` files (the baselines' and the velocity tasks'): each line
-//! `TASK ARM DIR...` names an arm the docs read, with run directories relative to the repository
-//! root. Every directory must be a complete run of that task that the report loads, every arm one
-//! of the file's allowed names, and no directory may serve two arms: a table built from these files
-//! is then built from what is committed.
+//! The committed `results/*/arms.txt` files (the baselines', the velocity tasks' and their finals
+//! at power): each line `TASK ARM DIR...` names an arm the docs read, with run directories relative
+//! to the repository root. Every directory must be a complete run of that task that the report
+//! loads, every arm one of the file's allowed names, and no directory may serve two arms: a table
+//! built from these files is then built from what is committed.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::collections::HashSet;
@@ -70,4 +70,12 @@ fn velocity_arms_name_complete_runs_of_their_task() {
 #[test]
 fn crash_limit_arms_name_complete_runs_of_their_task() {
     check("results/crash-limit/arms.txt", &["bare", "defender", "defender-limit"]);
+}
+
+#[test]
+fn velocity_power_arms_name_complete_runs_of_their_task() {
+    check(
+        "results/velocity-power/arms.txt",
+        &["dl-cont-d20", "lag", "et-sac", "default", "bare", "omnisafe-saclag"],
+    );
 }
