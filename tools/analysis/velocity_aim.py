@@ -28,6 +28,7 @@ candidate's evaluation cost holds the limit (its seeds do not settle which side 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,12 +59,17 @@ def best_lagrangian(arms: list[Arm], limit: float) -> Arm:
     return min(arms, key=lambda a: a.eval_cost)
 
 
+def return_and_rate(candidate: Arm, best: Arm) -> tuple[bool, bool]:
+    """The aim's second and third conditions, shared by both readings of its first: a higher
+    return than `best`'s, at a training cost rate at most half of `best`'s."""
+    return candidate.eval_return > best.eval_return, candidate.cost_rate <= 0.5 * best.cost_rate
+
+
 def verdict(candidate: Arm, best: Arm, limit: float) -> tuple[bool, list[str]]:
     """Whether the aim is met, and each of its three conditions as a line."""
     keeps = candidate.eval_cost <= limit
-    higher = candidate.eval_return > best.eval_return
+    higher, cheap = return_and_rate(candidate, best)
     bound = 0.5 * best.cost_rate
-    cheap = candidate.cost_rate <= bound
     lines = [
         f"evaluation cost {candidate.eval_cost:.1f} {'<=' if keeps else '>'} the limit {limit:g}",
         f"return {candidate.eval_return:.0f} {'>' if higher else '<='} {best.name}'s {best.eval_return:.0f}",
@@ -79,8 +85,7 @@ def share_verdict(candidate: Arm, best: Arm) -> tuple[bool, str]:
     enough = candidate.within >= best.within and candidate.within >= 0.5
     line = (f"episodes within the limit {candidate.within:.0%} {'>=' if candidate.within >= best.within else '<'} "
             f"{best.name}'s {best.within:.0%}, {'>=' if candidate.within >= 0.5 else '<'} one half")
-    higher = candidate.eval_return > best.eval_return
-    cheap = candidate.cost_rate <= 0.5 * best.cost_rate
+    higher, cheap = return_and_rate(candidate, best)
     return enough and higher and cheap, line
 
 
@@ -125,7 +130,7 @@ def arm_of(name: str, row: dict[str, str], where: str) -> Arm:
 def describe(arm: Arm) -> str:
     lo, hi = arm.eval_cost_ci
     w_lo, w_hi = arm.within_ci
-    within = "" if arm.within != arm.within else f", episodes within the limit {arm.within:.0%} [{w_lo:.0%}, {w_hi:.0%}]"
+    within = "" if math.isnan(arm.within) else f", episodes within the limit {arm.within:.0%} [{w_lo:.0%}, {w_hi:.0%}]"
     return (f"- {arm.name} ({arm.seeds} seed{'s' if arm.seeds != 1 else ''}): last-10 return {arm.eval_return:.0f}, "
             f"evaluation cost {arm.eval_cost:.1f} [{lo:.1f}, {hi:.1f}]{within}, training cost rate {arm.cost_rate:.3f}")
 
@@ -178,7 +183,7 @@ def main() -> int:
         if straddles(candidate, limit):
             print(f"  - the interval of {candidate.name}'s evaluation cost holds the limit: its seeds do not settle "
                   "which side it is on")
-        if candidate.within == candidate.within and best.within == best.within:
+        if not (math.isnan(candidate.within) or math.isnan(best.within)):
             by_share, line = share_verdict(candidate, best)
             print(f"- by the share of episodes within the limit: **{'met' if by_share else 'not met'}** ({line})")
         else:
