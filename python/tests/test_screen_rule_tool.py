@@ -151,3 +151,38 @@ def test_the_velocity_rule_with_one_reference_gives_the_share_of_late_episodes_w
     out = run_tool("velocity", str(tmp_path / "vel"))
     assert "best Lagrangian: sac-bare-lag (training cost rate 0.100, bound 0.050)" in out, out
     assert "- chosen: **sac-auto-dl** (qualifies with the highest return)" in out, out
+
+
+def test_a_reference_arm_is_read_to_the_screens_budget_beside_the_rule(tmp_path):
+    steps = 100_000
+    evals = [(60_000, 1000.0, 0), (100_000, 1000.0, 0), (200_000, 5000.0, 0)]
+    bare = tmp_path / "bare" / "Hopper-v5"
+    for seed in (0, 1):
+        make_run(bare / f"sac-bare-s{seed}", steps, [(8000, 10, "crashed", 1)], evals)
+    # The reference ran to 200k: what happened after 100k (a crash, a filtered episode, the
+    # evaluation of 5000) must not count; nor the warm-up's crash and filtered episode.
+    for seed, (crashes, filtered) in enumerate([(2, 3), (4, 1)]):
+        eps = [(1000, 5, "crashed", 1), (2000, 5, "filtered", 0)]
+        eps += [(6000 + 100 * k, 5, "crashed", 1) for k in range(crashes)]
+        eps += [(9000 + 100 * k, 5, "filtered", 0) for k in range(filtered)]
+        eps += [(150_000, 5, "crashed", 1), (160_000, 5, "filtered", 0)]
+        make_run(bare / f"sac-auto-ref-s{seed}", 200_000, eps, [(60_000, 1100.0, 0), (100_000, 1300.0, 0), (200_000, 5000.0, 0)])
+    for seed in (0, 1):
+        make_run(tmp_path / "screen" / "Hopper-v5" / f"sac-bare-lag-a-s{seed}", steps, [], evals)
+    out = run_tool("baselines", str(tmp_path / "screen"), "--bare", str(tmp_path / "bare"), "--reference", "sac-auto-ref")
+    expected = ("- reference sac-auto-ref, read to 100000 steps: 3.0 crashes after the warm-up (2, 4), "
+                "return 1200, 2.0 filtered episodes after the warm-up (3, 1)")
+    assert expected in out, out
+    # The reference is no setting of the screen: the rule's choice is made without it.
+    assert "- lag: **sac-bare-lag-a**" in out, out
+    assert "| sac-auto-ref" not in out, out
+
+
+def test_a_reference_without_runs_on_the_screens_seeds_is_a_clear_error(tmp_path):
+    evals = [(60_000, 1000.0, 0), (100_000, 1000.0, 0)]
+    make_run(tmp_path / "bare" / "Hopper-v5" / "sac-bare-s0", 100_000, [], evals)
+    make_run(tmp_path / "screen" / "Hopper-v5" / "sac-bare-lag-a-s0", 100_000, [], evals)
+    tool = [sys.executable, str(TOOL), "baselines", str(tmp_path / "screen"), "--bare", str(tmp_path / "bare")]
+    out = subprocess.run([*tool, "--reference", "sac-auto-none"], capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "--reference sac-auto-none" in out.stderr and "sac-auto-none-s0" in out.stderr, out.stderr

@@ -8,6 +8,8 @@ config.toml, interventions.csv); it trains nothing.
 
   python3 tools/analysis/screen_rule.py baselines results/screen-baselines results/screen-baselines-recovery \
       --bare results/keeps-learning
+  python3 tools/analysis/screen_rule.py baselines results/screen-triggers --bare results/keeps-learning \
+      --reference sac-auto-precision-demos
   python3 tools/analysis/screen_rule.py velocity results/velocity-limit-screen
   python3 tools/analysis/screen_rule.py velocity results/velocity-power-screen
 
@@ -97,6 +99,29 @@ def interventions(run: Path, steps: int) -> tuple[int, int, list[int]] | None:
     return len(late), len(checked), [int(r["steps_to_failure"]) for r in checked if r["would_fail"] == "1"]
 
 
+def filtered_after_warmup(run: Path, steps: int) -> int:
+    return sum(
+        1
+        for r in rows(run / "metrics.csv")
+        if r["outcome"] == "filtered" and WARMUP < int(r["total_steps"]) <= steps
+    )
+
+
+def reference_line(task_dir: Path, name: str, seeds: list[int], steps: int) -> str:
+    """A committed arm's runs on the screen's seeds read to the screen's budget the same way (the
+    default beside a screen of other triggers): not a setting of the screen, so outside the rule."""
+    runs = [task_dir / f"{name}-s{s}" for s in seeds]
+    missing = [str(r) for r in runs if not complete(r, steps)]
+    if missing:
+        raise SystemExit(f"--reference {name}: no run reaching {steps} steps at {', '.join(missing)}")
+    crashes = [crashes_after_warmup(r, steps) for r in runs]
+    filtered = [filtered_after_warmup(r, steps) for r in runs]
+    ret = mean([late_eval(r, steps, "mean_return") for r in runs])
+    return (f"- reference {name}, read to {steps} steps: {mean(crashes):.1f} crashes after the warm-up "
+            f"({', '.join(map(str, crashes))}), return {ret:.0f}, {mean(filtered):.1f} filtered episodes "
+            f"after the warm-up ({', '.join(map(str, filtered))})\n")
+
+
 def mean(xs: list[float]) -> float:
     return sum(xs) / len(xs)
 
@@ -111,6 +136,8 @@ def baselines(args: argparse.Namespace) -> None:
         bare_crashes = mean([crashes_after_warmup(r, steps) for r in bare_runs])
         print(f"\n### {task}: {steps} steps, seeds {seeds}; bare SAC {bare:.0f} (bar {bar:.0f}), "
               f"{bare_crashes:.0f} crashes after the warm-up\n")
+        for name in args.reference:
+            print(reference_line(Path(args.bare) / task, name, seeds, steps))
         counted = any((r / "interventions.csv").exists() for runs in by_setting.values() for r in runs)
         extra = " interventions after warm-up | precision | lead (median steps) |" if counted else ""
         print(f"| setting | runs | crashes after warm-up | return (last 40%) | reaches the bar |{extra}")
@@ -211,6 +238,14 @@ def main() -> int:
     b = sub.add_parser("baselines", help="the second screen of the baselines' knobs")
     b.add_argument("roots", nargs="+", help="the screen's sweep directories (TASK/NAME-sSEED runs)")
     b.add_argument("--bare", required=True, help="the directory with TASK/sac-bare-sSEED runs")
+    b.add_argument(
+        "--reference",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also read the --bare directory's TASK/NAME-sSEED runs to the screen's budget, for comparison "
+        "(outside the rule; e.g. sac-auto-precision-demos, the default)",
+    )
     v = sub.add_parser("velocity", help="the velocity tasks' screen of the DEFENDER variants")
     v.add_argument("root")
     args = parser.parse_args()
