@@ -55,12 +55,16 @@ def complete(run: Path, steps: int) -> bool:
     return any(int(r["total_steps"]) >= steps for r in evals)
 
 
-def crashes_after_warmup(run: Path, steps: int) -> int:
+def episodes_after_warmup(run: Path, steps: int, outcome: str) -> int:
     return sum(
         1
         for r in rows(run / "metrics.csv")
-        if r["outcome"] == "crashed" and WARMUP < int(r["total_steps"]) <= steps
+        if r["outcome"] == outcome and WARMUP < int(r["total_steps"]) <= steps
     )
+
+
+def crashes_after_warmup(run: Path, steps: int) -> int:
+    return episodes_after_warmup(run, steps, "crashed")
 
 
 def cost_rate(run: Path, steps: int) -> float:
@@ -99,14 +103,6 @@ def interventions(run: Path, steps: int) -> tuple[int, int, list[int]] | None:
     return len(late), len(checked), [int(r["steps_to_failure"]) for r in checked if r["would_fail"] == "1"]
 
 
-def filtered_after_warmup(run: Path, steps: int) -> int:
-    return sum(
-        1
-        for r in rows(run / "metrics.csv")
-        if r["outcome"] == "filtered" and WARMUP < int(r["total_steps"]) <= steps
-    )
-
-
 def reference_line(task_dir: Path, name: str, seeds: list[int], steps: int) -> str:
     """A committed arm's runs on the screen's seeds read to the screen's budget the same way (the
     default beside a screen of other triggers): not a setting of the screen, so outside the rule."""
@@ -115,7 +111,7 @@ def reference_line(task_dir: Path, name: str, seeds: list[int], steps: int) -> s
     if missing:
         raise SystemExit(f"--reference {name}: no run reaching {steps} steps at {', '.join(missing)}")
     crashes = [crashes_after_warmup(r, steps) for r in runs]
-    filtered = [filtered_after_warmup(r, steps) for r in runs]
+    filtered = [episodes_after_warmup(r, steps, "filtered") for r in runs]
     ret = mean([late_eval(r, steps, "mean_return") for r in runs])
     return (f"- reference {name}, read to {steps} steps: {mean(crashes):.1f} crashes after the warm-up "
             f"({', '.join(map(str, crashes))}), return {ret:.0f}, {mean(filtered):.1f} filtered episodes "
